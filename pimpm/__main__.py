@@ -1,0 +1,101 @@
+"""Command line: ``python -m pimpm INPUT.yaml [--check] [--overwrite] [PETSc options]``."""
+import argparse
+import sys
+
+HELP = """\
+pimpm: parallel implicit Material Point Method (Guilkey & Weiss 2003) on PETSc.
+
+usage: [mpiexec -n N] python -m pimpm INPUT.yaml [--check] [--overwrite] [PETSc options]
+
+  INPUT.yaml     problem description (schema: docs/INPUT.md)
+  --check        validate the input, print a summary (cells, particles per body,
+                 ranks, dt, steps) and exit without running
+  --overwrite    replace results already in the output directory
+  --help         this text
+
+Any other option goes to PETSc and overrides the YAML `solver.petsc` block and
+pimpm's defaults (Newton with backtracking line search, MUMPS LU), e.g.
+  -snes_monitor -snes_converged_reason -ksp_type cg -pc_type gamg -log_view
+  -options_file FILE   -help (PETSc's own option list)
+
+Output: OUTDIR/results.h5, particles.xdmf and grid.xdmf (open in ParaView),
+history.csv (one row per step). Exit status: 0 done, 1 numerical failure
+(results up to the last good step are kept), 2 bad input or usage.
+"""
+
+
+def split_arguments(argv):
+    """Separate pimpm's own arguments from PETSc options: a single-dash token
+    starts a PETSc option and the plain tokens after it are its values."""
+    ours, petsc = [], []
+    in_petsc_option = False
+    for token in argv:
+        if token.startswith("--"):
+            ours.append(token)
+            in_petsc_option = False
+        elif token.startswith("-") and len(token) > 1:
+            petsc.append(token)
+            in_petsc_option = True
+        elif in_petsc_option:
+            petsc.append(token)
+        else:
+            ours.append(token)
+    return ours, petsc
+
+
+def parse(argv):
+    parser = argparse.ArgumentParser(prog="pimpm", add_help=False, allow_abbrev=False)
+    parser.add_argument("input", nargs="?")
+    parser.add_argument("--check", action="store_true")
+    parser.add_argument("--overwrite", action="store_true")
+    parser.add_argument("--help", action="store_true")
+    ours, petsc = split_arguments(argv)
+    args, unknown = parser.parse_known_args(ours)
+    return args, unknown, petsc
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    args, unknown, petsc_args = parse(argv)
+    if args.help:
+        print(HELP, end="")
+        return 0
+
+    import petsc4py
+    petsc4py.init([sys.argv[0]] + petsc_args)
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+
+    def fail(message, status=2):
+        if comm.rank == 0:
+            print(f"pimpm: error: {message}", file=sys.stderr, flush=True)
+        return status
+
+    if unknown:
+        return fail(f"unknown argument(s) {' '.join(unknown)}: see python -m pimpm --help")
+    if not args.input:
+        if "-help" in petsc_args:
+            return 0
+        return fail("missing INPUT.yaml: see python -m pimpm --help")
+
+    from .config import ConfigError, load_config
+    from .driver import UsageError, run, summary
+    try:
+        config = load_config(args.input)
+    except ConfigError as err:
+        return fail(str(err))
+    if args.check:
+        from .simulation import Simulation
+        sim = Simulation(config, comm)
+        if comm.rank == 0:
+            print("\n".join(summary(sim, config)))
+            print("pimpm: input is valid")
+        return 0
+    try:
+        return run(config, comm, overwrite=args.overwrite)
+    except UsageError as err:
+        return fail(str(err))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

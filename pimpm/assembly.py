@@ -1,0 +1,79 @@
+"""Residual and consistent tangent kernels of the implicit step (Guilkey &
+Weiss 2003, section 3.3, steps 2 and 5), as pure functions over all particles.
+
+The unknown of a step is the incremental grid displacement ``u`` from t to
+t + dt. With shape-function gradients ``G`` evaluated at the particle
+positions of time t (the grid is reset), each particle carries
+
+    F_inc = 1 + sum_i u_i (x) G_ip,      F(t+dt) = F_inc F(t)        (step 5)
+
+and contributes to the internal force through the first Piola-Kirchhoff
+stress relative to the configuration at t, ``P = J_inc sigma F_inc^-T``:
+
+    Fint_i = sum_p V_p(t) P_p G_ip  ( = sum_p v_p sigma_p g_ip, g = F_inc^-T G )
+
+Its exact derivative is the material + geometric stiffness of step 2,
+evaluated with current gradients ``g`` and current volume ``v``:
+
+    K_(ia)(jb) = sum_p v_p g_ic (c_acbd + delta_ab sigma_cd) g_jd
+
+where ``c`` is the spatial elasticity tensor (G&W eq. 21). In 2D (plane
+strain) only the in-plane components enter.
+"""
+import numpy as np
+
+from . import smallmat
+
+
+def deformation_increment(grad_u):
+    """F_inc (n, 3, 3) = 1 + grad u, with grad u (n, dim, dim) padded to 3x3."""
+    n, dim = grad_u.shape[0], grad_u.shape[1]
+    F_inc = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    F_inc[:, :dim, :dim] += grad_u
+    return F_inc
+
+
+def incremental_first_piola(sigma, F_inc, dim):
+    """In-plane part of P = J_inc sigma F_inc^-T, (n, dim, dim)."""
+    F2 = F_inc[:, :dim, :dim]
+    J_inc = smallmat.det(F2)
+    F_inv_T = np.transpose(smallmat.inv(F2), (0, 2, 1))
+    return J_inc[:, None, None] * np.matmul(sigma[:, :dim, :dim], F_inv_T)
+
+
+def internal_force_pairs(P, G, volume):
+    """Per (particle, node) internal force V_p P_p G_ip, (n, nn, dim)."""
+    return volume[:, None, None] * np.matmul(G, np.transpose(P, (0, 2, 1)))
+
+
+def current_gradients(F_inc, G):
+    """Shape-function gradients on the deformed grid, g = F_inc^-T G, (n, nn, dim)."""
+    dim = G.shape[2]
+    F_inv = smallmat.inv(F_inc[:, :dim, :dim])
+    return np.matmul(G, F_inv)
+
+
+def element_tangents(sigma, c, F_inc, G, volume):
+    """Per-particle stiffness blocks (n, nn*dim, nn*dim): material + geometric
+    stiffness of G&W step 2 (row index i*dim + a, column j*dim + b)."""
+    n, nn, dim = G.shape
+    J_inc = smallmat.det(F_inc[:, :dim, :dim])
+    v = volume * J_inc
+    g = current_gradients(F_inc, G)
+    a = c[:, :dim, :dim, :dim, :dim].copy()
+    for k in range(dim):                                     # + delta_ab sigma_cd
+        a[:, k, :, k, :] += sigma[:, :dim, :dim]
+    # T_(i,abd) = g_ic a_acbd, then K_(iab),j = T_(iab),d g_jd (batched matmuls)
+    a_c_first = np.transpose(a, (0, 2, 1, 3, 4)).reshape(n, dim, dim**3)
+    T = np.matmul(g, a_c_first).reshape(n, nn * dim * dim, dim)
+    K = np.matmul(T, np.transpose(g, (0, 2, 1))).reshape(n, nn, dim, dim, nn)
+    K = np.transpose(K, (0, 1, 2, 4, 3)) * v[:, None, None, None, None]
+    return K.reshape(n, nn * dim, nn * dim)
+
+
+def sum_by_group(values, starts):
+    """Sum consecutive rows of ``values`` that share a group (particles sorted
+    by cell; ``starts`` = first row of each group)."""
+    if len(starts) == 0:
+        return values[:0]
+    return np.add.reduceat(values, starts, axis=0)

@@ -1,0 +1,176 @@
+"""The background grid: a PETSc DMDA that owns the nodal unknowns, and the rule
+that decides which MPI rank owns each cell (and so each particle).
+
+Ownership rule: cell ``c`` (along each axis) belongs to the rank that owns its
+lower node ``c``; the last node along an axis has no cell of its own. With a
+box stencil of width 1 every node of an owned cell is then in the rank's
+ghosted local range, so particle-to-grid scatters and element matrices can be
+written in local (ghosted) numbering.
+"""
+import numpy as np
+from petsc4py import PETSc
+
+
+class Grid:
+    """Uniform structured grid on a DMDA with ``dof = dim`` (one unknown per
+    displacement component and node)."""
+
+    def __init__(self, comm, lower, upper, cells, stencil_width=1):
+        self.comm = comm  # mpi4py communicator
+        self.dim = len(cells)
+        self.lower = np.asarray(lower, dtype=float)
+        self.upper = np.asarray(upper, dtype=float)
+        self.cells = np.asarray(cells, dtype=np.int64)
+        self.nodes = self.cells + 1
+        self.spacing = (self.upper - self.lower) / self.cells
+        self.cell_volume = float(np.prod(self.spacing))
+        petsc_comm = PETSc.Comm(comm)
+        self.da = PETSc.DMDA().create(
+            dim=self.dim, dof=self.dim, sizes=tuple(int(n) for n in self.nodes),
+            stencil_type=PETSc.DMDA.StencilType.BOX, stencil_width=stencil_width,
+            comm=petsc_comm)
+        self.da.setUp()
+        lo, hi = self.lower, self.upper
+        self.da.setUniformCoordinates(*[v for d in range(self.dim) for v in (lo[d], hi[d])])
+
+        # Owned and ghosted node boxes (per axis [start, end)).
+        self.owned_start = np.array([r[0] for r in self.da.getRanges()], dtype=np.int64)
+        self.owned_end = np.array([r[1] for r in self.da.getRanges()], dtype=np.int64)
+        self.ghost_start = np.array([r[0] for r in self.da.getGhostRanges()], dtype=np.int64)
+        self.ghost_end = np.array([r[1] for r in self.da.getGhostRanges()], dtype=np.int64)
+        self.ghost_shape = self.ghost_end - self.ghost_start
+        self.owned_shape = self.owned_end - self.owned_start
+        self.n_local_nodes = int(np.prod(self.ghost_shape))   # ghosted
+        self.n_owned_nodes = int(np.prod(self.owned_shape))
+
+        # Process grid and per-axis ownership boundaries, for locating owners.
+        self.proc_sizes = np.array(self.da.getProcSizes(), dtype=np.int64)
+        self._axis_ends = [np.cumsum(np.asarray(r, dtype=np.int64))
+                           for r in self.da.getOwnershipRanges()]
+
+        # Cells owned by this rank (per axis [start, end)).
+        self.owned_cell_start = self.owned_start.copy()
+        self.owned_cell_end = np.minimum(self.owned_end, self.cells)
+
+        # Owned nodes in ghosted local numbering, in PETSc's global (x fastest) order.
+        rel = [np.arange(s, e) - g for s, e, g in
+               zip(self.owned_start, self.owned_end, self.ghost_start)]
+        mesh = np.meshgrid(*rel, indexing="ij")  # axis 0 = x
+        local = self._local_node_index_from_rel(mesh)
+        # transpose to (z, y, x) so that ravel() is x fastest
+        self.owned_local_nodes = np.ascontiguousarray(local.T).ravel()
+
+        # Global (natural) node multi-index of each owned node, same order.
+        self.owned_node_ijk = np.stack(
+            [np.ascontiguousarray(m.T).ravel() + g for m, g in zip(mesh, self.ghost_start)], axis=1)
+
+    # ------------------------------------------------------------------ indices
+    def _local_node_index_from_rel(self, rel):
+        """Linear ghosted-local node index from ghost-relative per-axis indices
+        (x fastest)."""
+        index = rel[-1]
+        for d in range(self.dim - 2, -1, -1):
+            index = index * self.ghost_shape[d] + rel[d]
+        return index
+
+    def local_node_index(self, ijk):
+        """Ghosted-local linear index of global node multi-indices ``ijk``
+        (array with the axis index last)."""
+        rel = [ijk[..., d] - self.ghost_start[d] for d in range(self.dim)]
+        return self._local_node_index_from_rel(rel)
+
+    def cell_of(self, x):
+        """Cell multi-index (n, dim) containing each position, clipped to the grid."""
+        c = np.floor((x - self.lower) / self.spacing).astype(np.int64)
+        return np.clip(c, 0, self.cells - 1)
+
+    def inside(self, x):
+        """True for positions inside the grid (closed box)."""
+        return np.all((x >= self.lower) & (x <= self.upper), axis=1)
+
+    def owner_of_cells(self, cells):
+        """MPI rank owning each cell (n, dim): the owner of the cell's lower node."""
+        rank = np.zeros(len(cells), dtype=np.int64)
+        stride = 1
+        for d in range(self.dim):
+            q = np.searchsorted(self._axis_ends[d], cells[:, d], side="right")
+            rank += q * stride
+            stride *= self.proc_sizes[d]
+        return rank
+
+    def local_cell_index(self, cells):
+        """Linear index of owned cells relative to this rank's owned cell box
+        (used to group particles by cell)."""
+        shape = self.owned_cell_end - self.owned_cell_start
+        index = cells[:, -1] - self.owned_cell_start[-1]
+        for d in range(self.dim - 2, -1, -1):
+            index = index * shape[d] + (cells[:, d] - self.owned_cell_start[d])
+        return index
+
+    def global_cell_index(self, cells):
+        """Linear natural index of cells (x fastest)."""
+        index = cells[:, -1].copy()
+        for d in range(self.dim - 2, -1, -1):
+            index = index * self.cells[d] + cells[:, d]
+        return index
+
+    # ------------------------------------------------------------------ vectors
+    def owned_view(self, array):
+        """Reshape an owned (global Vec) dof array to ``owned_shape + (dim,)``
+        with the x axis first."""
+        shape = tuple(int(s) for s in self.owned_shape[::-1]) + (self.dim,)
+        a = np.asarray(array).reshape(shape)
+        return np.ascontiguousarray(np.moveaxis(a, list(range(self.dim)), list(range(self.dim))[::-1]))
+
+    def owned_box(self):
+        """(starts, sizes) of this rank's owned node box."""
+        return tuple(int(s) for s in self.owned_start), tuple(int(s) for s in self.owned_shape)
+
+    def node_coordinates_owned(self):
+        """Coordinates (n_owned_nodes, dim) of the owned nodes, PETSc order."""
+        return self.lower + self.owned_node_ijk * self.spacing
+
+    def face_dofs(self, face, components):
+        """Owned dof indices (into the owned/global-local array) of the nodes
+        on a grid face (e.g. ``"xmin"``) for the given components."""
+        axis = "xyz".index(face[0])
+        value = 0 if face.endswith("min") else int(self.cells[axis])
+        nodes = np.nonzero(self.owned_node_ijk[:, axis] == value)[0]
+        comps = np.asarray(components, dtype=np.int64)
+        return (nodes[:, None] * self.dim + comps[None, :]).ravel()
+
+    # ----------------------------------------------------- local <-> global sums
+    def _scratch(self):
+        if not hasattr(self, "_local_vec"):
+            self._local_vec = self.da.createLocalVec()
+            self._global_vec = self.da.createGlobalVec()
+        return self._local_vec, self._global_vec
+
+    def sum_to_owned(self, local_values):
+        """Sum ghosted-local nodal values (n_local_nodes, dim) over all ranks
+        (DMDA localToGlobal with ADD); returns this rank's owned dof array
+        (n_owned_nodes * dim,) in PETSc order. Collective."""
+        lvec, gvec = self._scratch()
+        lvec.getArray()[:] = np.asarray(local_values, dtype=float).reshape(-1)
+        gvec.zeroEntries()
+        self.da.localToGlobal(lvec, gvec, addv=PETSc.InsertMode.ADD_VALUES)
+        return gvec.getArray().copy()
+
+    def owned_to_local(self, owned_values):
+        """Ghosted-local copy (n_local_nodes, dim) of an owned dof array.
+        Collective."""
+        lvec, gvec = self._scratch()
+        gvec.getArray()[:] = owned_values
+        self.da.globalToLocal(gvec, lvec, addv=PETSc.InsertMode.INSERT_VALUES)
+        return lvec.getArray().reshape(self.n_local_nodes, self.dim).copy()
+
+    def vec_to_local(self, vec):
+        """Ghosted-local copy (n_local_nodes, dim) of a global Vec. Collective."""
+        lvec, _ = self._scratch()
+        self.da.globalToLocal(vec, lvec, addv=PETSc.InsertMode.INSERT_VALUES)
+        return lvec.getArray().reshape(self.n_local_nodes, self.dim).copy()
+
+    def global_dof_offset(self):
+        """First global row of this rank's owned dofs."""
+        _, gvec = self._scratch()
+        return gvec.getOwnershipRange()[0]

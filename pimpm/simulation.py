@@ -1,0 +1,338 @@
+"""The simulation: particles on a DMDA grid advanced by the implicit MPM step
+of Guilkey & Weiss (2003), section 3.3. Steps 1-8 of their algorithm are
+marked in :meth:`Simulation.advance`.
+"""
+import time as wallclock
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from . import bodies as bc
+from .grid import Grid
+from .implicit import ImplicitSolver, StepState, constitutive_update, particle_kinematics
+from .materials import make_material, von_mises
+from .particles import ParticleSet, migrate, seed_body
+from .shape import make_shape
+from .transfer import grid_to_particle, particle_to_grid
+
+
+class StepFailed(Exception):
+    """A step could not be completed (Newton diverged, a particle inverted or
+    left the grid). The state of the simulation is the last good step."""
+
+
+def default_solver_options(config, materials):
+    """Program defaults for PETSc options (YAML and command line override)."""
+    dim = config["dim"]
+    h = float(np.min((np.asarray(config["grid"]["upper"]) - np.asarray(config["grid"]["lower"]))
+                     / np.asarray(config["grid"]["cells"])))
+    stiffness = max(m.bulk_modulus + 4.0 / 3.0 * m.shear_modulus for m in materials)
+    force_scale = stiffness * h ** (dim - 1)
+    return {
+        "snes_type": "newtonls",
+        "snes_linesearch_type": "bt",
+        "snes_rtol": "1e-10",
+        "snes_atol": repr(1e-12 * force_scale),
+        "snes_max_it": "30",
+        "ksp_type": "preonly",
+        "pc_type": "lu",
+        "pc_factor_mat_solver_type": "mumps",
+    }
+
+
+def apply_options(options, prefix=""):
+    """Insert options into PETSc's database unless already set (the command
+    line, parsed first, always wins)."""
+    db = PETSc.Options()
+    for key, value in options.items():
+        name = prefix + key
+        if not db.hasName(name):
+            db.setValue(name, value)
+
+
+class Simulation:
+    def __init__(self, config, comm=MPI.COMM_WORLD):
+        self.config = config
+        self.comm = comm
+        self.dim = dim = config["dim"]
+        g = config["grid"]
+        self.shape = make_shape(g["shape_functions"], dim)
+        self.grid = Grid(comm, g["lower"], g["upper"], g["cells"],
+                         stencil_width=self.shape.stencil_width)
+        self.boundary = {face: kind for face, kind in g.get("boundary", {}).items()}
+        self.material_names = list(config["materials"])
+        self.materials = [make_material(config["materials"][k]) for k in self.material_names]
+        self.integrator = config["time"]["integrator"]
+        self.dynamic = self.integrator == "newmark"
+        self.gravity = np.asarray(config["time"].get("gravity", [0.0] * dim), dtype=float)
+        self.body_names = [b["name"] for b in config["bodies"]]
+        self.rigid_bodies = []          # (index, name, velocity, axes)
+        self.body_material = {}         # deformable body index -> material index
+        for i, b in enumerate(config["bodies"]):
+            if b.get("rigid", False):
+                axes = ["xyz".index(a) for a in b.get("constrain", "xyz"[:dim])]
+                self.rigid_bodies.append((i, b["name"], np.asarray(b["velocity"], float), axes))
+            else:
+                self.body_material[i] = self.material_names.index(b["material"])
+        self._seed()
+        self.time = 0.0
+        self.step_index = 0
+        self.count0 = self.particles.global_count(comm)
+        self.rigid_count0 = self.rigid.global_count(comm)
+        self.mass0 = float(self.particles.global_sum(comm, "mass"))
+        self.stages = {name: PETSc.Log.Stage(name) for name in
+                       ("P2G", "Newton solve", "G2P", "Migration", "Output")}
+        apply_options(default_solver_options(config, self.materials))
+        self.solver = ImplicitSolver(self.grid)
+        self.last_grid = None
+        self.previous_increment, self.previous_dt = None, None
+
+    # ----------------------------------------------------------------- seeding
+    def _seed(self):
+        dim = self.dim
+        mat = {k: [] for k in ("x", "volume0", "id", "body", "v", "density")}
+        rig = {k: [] for k in ("x", "id", "body", "v")}
+        id_offset = 0
+        for i, b in enumerate(self.config["bodies"]):
+            ppc = b["particles_per_cell"]
+            x, vol, pid = seed_body(self.grid, b["geometry"], ppc, i, id_offset)
+            id_offset += int(np.prod(self.grid.cells)) * int(np.prod(ppc))
+            target = rig if b.get("rigid", False) else mat
+            target["x"].append(x)
+            target["id"].append(pid)
+            target["body"].append(np.full(len(x), i, dtype=np.int64))
+            target["v"].append(np.tile(np.asarray(b.get("velocity", [0.0] * dim), float), (len(x), 1)))
+            if not b.get("rigid", False):
+                target["volume0"].append(vol)
+                target["density"].append(np.full(len(x), self.materials[self.body_material[i]].density))
+        cat = lambda lst, shape, dt=float: (np.concatenate(lst) if lst else np.zeros(shape, dtype=dt))
+        x = cat(mat["x"], (0, dim))
+        volume0 = cat(mat["volume0"], (0,))
+        n = len(x)
+        self.particles = ParticleSet({
+            "x": x, "x0": x.copy(),
+            "v": cat(mat["v"], (0, dim)), "a": np.zeros((n, dim)),
+            "F": np.broadcast_to(np.eye(3), (n, 3, 3)).copy(),
+            "stress": np.zeros((n, 3, 3)),
+            "volume0": volume0, "mass": volume0 * cat(mat["density"], (0,)),
+            "body": cat(mat["body"], (0,), np.int64), "id": cat(mat["id"], (0,), np.int64),
+        })
+        xr = cat(rig["x"], (0, dim))
+        self.rigid = ParticleSet({
+            "x": xr, "x0": xr.copy(), "v": cat(rig["v"], (0, dim)),
+            "body": cat(rig["body"], (0,), np.int64), "id": cat(rig["id"], (0,), np.int64),
+        })
+        self._sort_by_cell(self.particles)
+        self._sort_by_cell(self.rigid)
+
+    def _sort_by_cell(self, pset):
+        if len(pset):
+            key = self.grid.local_cell_index(self.grid.cell_of(pset["x"]))
+            pset.take(np.lexsort((pset["id"], key)))
+
+    # ----------------------------------------------------------------- one step
+    def footprint(self):
+        """Shape functions of the material particles on the reset grid."""
+        p = self.particles
+        nodes, S, G = self.shape.evaluate(p["x"], self.grid.lower, self.grid.spacing, self.grid.cells)
+        node_index = self.grid.local_node_index(nodes)
+        cell = self.grid.local_cell_index(self.grid.cell_of(p["x"]))
+        starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]]) if len(cell) else np.zeros(0, int)
+        return node_index, S, G, starts
+
+    def nodal_state(self, node_index, S):
+        """G&W step 1 (eq. 2-4): lumped mass, v_g(t), a_g(t) and Fext_g on
+        owned dofs."""
+        p, grid, dim = self.particles, self.grid, self.dim
+        nloc = grid.n_local_nodes
+        m = p["mass"]
+        mass = grid.sum_to_owned(np.repeat(particle_to_grid(node_index, S, m, nloc)[:, None], dim, 1))
+        momentum = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * p["v"], nloc))
+        mass_acc = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * p["a"], nloc))
+        fext = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * self.gravity, nloc))
+        has_mass = mass > 0.0
+        safe = np.where(has_mass, mass, 1.0)
+        velocity = np.where(has_mass, momentum / safe, 0.0)
+        acceleration = np.where(has_mass, mass_acc / safe, 0.0)
+        return mass, velocity, acceleration, fext
+
+    def constraint_scale(self, dt):
+        h = float(np.min(self.grid.spacing))
+        k = max(m.bulk_modulus + 4.0 / 3.0 * m.shear_modulus for m in self.materials) * h ** (self.dim - 2)
+        if self.dynamic:
+            k += 4.0 / dt**2 * max(m.density for m in self.materials) * self.grid.cell_volume
+        return k
+
+    def prepare_step(self, dt):
+        """Steps 1-2: P2G and the Newton state on the reset grid."""
+        p = self.particles
+        node_index, S, G, starts = self.footprint()
+        mass, velocity, acceleration, fext = self.nodal_state(node_index, S)
+        cons = bc.build_constraints(self.grid, self.shape, self.rigid, self.rigid_bodies,
+                                    self.boundary, mass, dt)
+        groups = []
+        for mi, material in enumerate(self.materials):
+            bodies_of = [b for b, m in self.body_material.items() if m == mi]
+            index = np.flatnonzero(np.isin(p["body"], bodies_of))
+            groups.append((material, index))
+        state = StepState(
+            dt=dt, dynamic=self.dynamic, node_index=node_index, S=S, G=G,
+            F_n=p["F"], volume_n=p["volume0"] * np.linalg.det(p["F"]),
+            material_groups=groups, cell_starts=starts, cell_nodes=node_index[starts],
+            mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
+            fixed=cons.fixed, fixed_value=cons.value, constraint_scale=self.constraint_scale(dt))
+        return state, cons
+
+    def predictor(self, state):
+        """Initial Newton guess for the free dofs. G&W step 2 starts from u = 0;
+        starting from the expected increment (constant acceleration in
+        dynamics, the previous increment in quasi-statics) is closer and
+        saves Newton iterations without changing the converged answer."""
+        if self.dynamic:
+            return state.dt * state.velocity + 0.5 * state.dt**2 * state.acceleration
+        if self.previous_increment is not None:
+            return self.previous_increment * (state.dt / self.previous_dt)
+        return np.zeros_like(state.mass)
+
+    def advance(self, dt):
+        """One implicit step (G&W section 3.3). Returns a dict of step data.
+        Raises StepFailed, leaving the particles as they were."""
+        t0 = wallclock.perf_counter()
+        comm, grid, p = self.comm, self.grid, self.particles
+        self.stages["P2G"].push()
+        state, cons = self.prepare_step(dt)                       # steps 1-2
+        self.stages["P2G"].pop()
+
+        self.stages["Newton solve"].push()
+        guess = np.where(state.fixed, state.fixed_value, 0.0 * self.predictor(state))
+        u, info = self.solver.solve(state, guess)                 # steps 3-6
+        self.stages["Newton solve"].pop()
+        if not info["converged"]:
+            why = "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"]
+            raise StepFailed(f"Newton did not converge at step {self.step_index + 1} "
+                             f"(t = {self.time + dt:.6g}, dt = {dt:.6g}): {why} after "
+                             f"{info['newton_iterations']} iterations")
+
+        self.stages["G2P"].push()
+        u_local = grid.owned_to_local(u)
+        raw = self.solver.unconstrained_residual(u, u_local)      # Fint + M a - Fext
+        forces = {}
+        for name, mask in cons.body_dofs.items():
+            local = np.where(mask, raw, 0.0).reshape(-1, self.dim).sum(axis=0)
+            forces[name] = comm.allreduce(local, op=MPI.SUM)
+
+        # step 7: converged state, a_g(t+dt) from eq. 16, interpolate to particles
+        F_inc, F, _ = particle_kinematics(state, u_local)
+        sigma, _ = constitutive_update(state, F, tangent=False)
+        if self.dynamic:
+            a_new = 4.0 / dt**2 * u - 4.0 / dt * state.velocity - state.acceleration
+            v_new = 2.0 / dt * u - state.velocity
+        else:
+            a_new = np.zeros_like(u)
+            v_new = u / dt
+        a_local = grid.owned_to_local(a_new)
+        u_p = grid_to_particle(state.node_index, state.S, u_local)
+        a_p = grid_to_particle(state.node_index, state.S, a_local)
+        new_x = p["x"] + u_p
+        new_rigid_x = self.rigid["x"] + self.rigid["v"] * dt
+        outside = int(np.sum(~grid.inside(new_x))) + int(np.sum(~grid.inside(new_rigid_x)))
+        if comm.allreduce(outside) > 0:
+            raise StepFailed(f"particles would leave the grid at step {self.step_index + 1} "
+                             f"(t = {self.time + dt:.6g}); enlarge grid.lower/upper")
+        p["x"] = new_x
+        if self.dynamic:
+            p["v"] = p["v"] + 0.5 * dt * (p["a"] + a_p)
+            p["a"] = a_p
+        else:
+            p["v"] = u_p / dt
+            p["a"] = np.zeros_like(u_p)
+        p["F"] = F
+        p["stress"] = sigma
+        self.rigid["x"] = new_rigid_x
+        self.stages["G2P"].pop()
+
+        self.stages["Migration"].push()
+        self.migrate()
+        self.stages["Migration"].pop()                            # step 8
+
+        self.time += dt
+        self.step_index += 1
+        self.previous_increment, self.previous_dt = u, dt
+        self.last_grid = {"mass": state.mass, "velocity": v_new, "acceleration": a_new,
+                          "displacement_increment": u}
+        history = info["residual_history"]
+        return {
+            "step": self.step_index, "time": self.time, "dt": dt,
+            "newton_iterations": info["newton_iterations"],
+            "linear_iterations": info["linear_iterations"],
+            "residual_initial": float(history[0]) if len(history) else 0.0,
+            "residual_final": float(history[-1]) if len(history) else 0.0,
+            "residual_history": history,
+            "forces": forces,
+            "kinetic_energy": self.kinetic_energy(),
+            "strain_energy": self.strain_energy(),
+            "wall_time": wallclock.perf_counter() - t0,
+        }
+
+    # ----------------------------------------------------------------- migration
+    def migrate(self):
+        """Send particles to the rank owning their cell, then check that the
+        global particle count and mass are unchanged."""
+        for pset in (self.particles, self.rigid):
+            dest = self.grid.owner_of_cells(self.grid.cell_of(pset["x"]))
+            migrate(self.comm, pset, dest)
+            self._sort_by_cell(pset)
+        count = self.particles.global_count(self.comm)
+        rigid_count = self.rigid.global_count(self.comm)
+        mass = float(self.particles.global_sum(self.comm, "mass"))
+        if count != self.count0 or rigid_count != self.rigid_count0 \
+                or abs(mass - self.mass0) > 1e-12 * abs(self.mass0):
+            raise RuntimeError(f"particle migration lost particles: count {count} "
+                               f"(expected {self.count0}), mass {mass!r} (expected {self.mass0!r})")
+
+    # ----------------------------------------------------------------- diagnostics
+    def kinetic_energy(self):
+        p = self.particles
+        return float(self.comm.allreduce(0.5 * np.sum(p["mass"] * np.sum(p["v"] ** 2, axis=1))))
+
+    def strain_energy(self):
+        p = self.particles
+        total = 0.0
+        for mi, material in enumerate(self.materials):
+            bodies_of = [b for b, m in self.body_material.items() if m == mi]
+            index = np.isin(p["body"], bodies_of)
+            if np.any(index):
+                total += float(np.sum(p["volume0"][index] * material.strain_energy(p["F"][index])))
+        return float(self.comm.allreduce(total))
+
+    def particle_output(self):
+        """Particle fields for output: material particles then rigid ones."""
+        p, r, dim = self.particles, self.rigid, self.dim
+        nr = len(r)
+        J = np.linalg.det(p["F"])
+        return {
+            "position": np.concatenate([p["x"], r["x"]]),
+            "displacement": np.concatenate([p["x"] - p["x0"], r["x"] - r["x0"]]),
+            "velocity": np.concatenate([p["v"], r["v"]]),
+            "stress": np.concatenate([p["stress"], np.zeros((nr, 3, 3))]),
+            "von_mises": np.concatenate([von_mises(p["stress"]), np.zeros(nr)]),
+            "J": np.concatenate([J, np.ones(nr)]),
+            "body": np.concatenate([p["body"], r["body"]]),
+            "id": np.concatenate([p["id"], r["id"]]),
+        }
+
+    def grid_output(self):
+        """Grid fields of the last step on owned nodes, x axis first."""
+        grid = self.grid
+        if self.last_grid is None:
+            n = grid.n_owned_nodes * self.dim
+            node_index, S, _, _ = self.footprint()
+            mass, velocity, acceleration, _ = self.nodal_state(node_index, S)
+            self.last_grid = {"mass": mass, "velocity": velocity, "acceleration": acceleration,
+                              "displacement_increment": np.zeros(n)}
+        out = {}
+        for name, values in self.last_grid.items():
+            view = grid.owned_view(values)
+            out[name] = view[..., 0] if name == "mass" else view
+        return out
