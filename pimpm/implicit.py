@@ -8,6 +8,7 @@ residual ``R(u) = -Q`` (G&W step 3) and its exact Jacobian
 ``K_mat + K_geo + 4/dt^2 M`` (step 2) to SNES. Solver choices come from the
 PETSc options database (command line > YAML ``solver.petsc`` > defaults).
 """
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,7 +75,7 @@ class ImplicitSolver:
     """PETSc objects of the implicit solve: SNES on the DMDA, the tangent
     matrix (exactly preallocated by the DMDA), residual and work vectors."""
 
-    def __init__(self, grid, stages=None):
+    def __init__(self, grid, options=None, stages=None):
         self.grid = grid
         self.da = grid.da
         self.state = None
@@ -89,7 +90,8 @@ class ImplicitSolver:
         self.snes.setFunction(self._form_residual, self.R)
         self.snes.setJacobian(self._form_jacobian, self.J, self.J)
         self.snes.setConvergenceHistory(length=1000, reset=True)
-        self.snes.setFromOptions()
+        with scoped_options(options or {}):
+            self.snes.setFromOptions()
         self.row_offset = self.X.getOwnershipRange()[0]
         self.inverted = False
 
@@ -113,6 +115,13 @@ class ImplicitSolver:
             self.inverted = True
             return None
         return F_inc, F
+
+    def inverts(self, state, u_owned):
+        """True on every rank if the displacement ``u_owned`` inverts a
+        particle anywhere. Collective."""
+        self.state = state
+        _, _, n_inverted = particle_kinematics(state, self.grid.owned_to_local(u_owned))
+        return self.grid.comm.allreduce(n_inverted) > 0
 
     def unconstrained_residual(self, u_owned, u_local):
         """-Q of G&W step 3 before constraints: Fint + M a - Fext (owned
@@ -185,6 +194,23 @@ class ImplicitSolver:
             "inverted": bool(self.grid.comm.allreduce(self.inverted)),
         }
         return self.X.getArray(readonly=True).copy(), info
+
+
+@contextmanager
+def scoped_options(options):
+    """Put program options (defaults, then the YAML ``solver.petsc`` block)
+    into PETSc's database only while a solver reads them, so they never leak
+    into other solvers; options already in the database (the command line)
+    win and are left alone."""
+    db = PETSc.Options()
+    inserted = [key for key in options if not db.hasName(key)]
+    for key in inserted:
+        db.setValue(key, options[key])
+    try:
+        yield
+    finally:
+        for key in inserted:
+            db.delValue(key)
 
 
 def _reason_name(reason):

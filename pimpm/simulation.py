@@ -41,16 +41,6 @@ def default_solver_options(config, materials):
     }
 
 
-def apply_options(options, prefix=""):
-    """Insert options into PETSc's database unless already set (the command
-    line, parsed first, always wins)."""
-    db = PETSc.Options()
-    for key, value in options.items():
-        name = prefix + key
-        if not db.hasName(name):
-            db.setValue(name, value)
-
-
 class Simulation:
     def __init__(self, config, comm=MPI.COMM_WORLD):
         self.config = config
@@ -83,8 +73,9 @@ class Simulation:
         self.mass0 = float(self.particles.global_sum(comm, "mass"))
         self.stages = {name: PETSc.Log.Stage(name) for name in
                        ("P2G", "Newton solve", "G2P", "Migration", "Output")}
-        apply_options(default_solver_options(config, self.materials))
-        self.solver = ImplicitSolver(self.grid)
+        options = default_solver_options(config, self.materials)
+        options.update(config.get("solver", {}).get("petsc", {}))
+        self.solver = ImplicitSolver(self.grid, options)
         self.last_grid = None
         self.previous_increment, self.previous_dt = None, None
 
@@ -205,7 +196,9 @@ class Simulation:
         self.stages["P2G"].pop()
 
         self.stages["Newton solve"].push()
-        guess = np.where(state.fixed, state.fixed_value, 0.0 * self.predictor(state))
+        guess = np.where(state.fixed, state.fixed_value, self.predictor(state))
+        if self.solver.inverts(state, guess):                    # G&W step 2: u = 0
+            guess = np.where(state.fixed, state.fixed_value, 0.0)
         u, info = self.solver.solve(state, guess)                 # steps 3-6
         self.stages["Newton solve"].pop()
         if not info["converged"]:
