@@ -77,7 +77,6 @@ class Simulation:
         options.update(config.get("solver", {}).get("petsc", {}))
         self.solver = ImplicitSolver(self.grid, options)
         self.last_grid = None
-        self.previous_increment, self.previous_dt = None, None
 
     # ----------------------------------------------------------------- seeding
     def _seed(self):
@@ -177,14 +176,11 @@ class Simulation:
 
     def predictor(self, state):
         """Initial Newton guess for the free dofs. G&W step 2 starts from u = 0;
-        starting from the expected increment (constant acceleration in
-        dynamics, the previous increment in quasi-statics) is closer and
-        saves Newton iterations without changing the converged answer."""
-        if self.dynamic:
-            return state.dt * state.velocity + 0.5 * state.dt**2 * state.acceleration
-        if self.previous_increment is not None:
-            return self.previous_increment * (state.dt / self.previous_dt)
-        return np.zeros_like(state.mass)
+        starting from the expected increment is closer and saves Newton
+        iterations without changing the converged answer: dt v_g + dt^2/2 a_g
+        with the grid velocity and acceleration interpolated from the
+        particles (in quasi-statics v_p is the last increment over dt)."""
+        return state.dt * state.velocity + 0.5 * state.dt**2 * state.acceleration
 
     def advance(self, dt):
         """One implicit step (G&W section 3.3). Returns a dict of step data.
@@ -251,7 +247,6 @@ class Simulation:
 
         self.time += dt
         self.step_index += 1
-        self.previous_increment, self.previous_dt = u, dt
         self.last_grid = {"mass": state.mass, "velocity": v_new, "acceleration": a_new,
                           "displacement_increment": u}
         history = info["residual_history"]
