@@ -67,21 +67,28 @@ def _safe_J(F):
     """det F, with NaN where det F <= 0 (or non-finite) so that everything
     computed from it is NaN for inverted particles."""
     with np.errstate(invalid="ignore", over="ignore"):
-        J = np.linalg.det(F)
+        J = _det3(F)
     return np.where(J > 0.0, J, np.nan)
+
+
+def _det3(F):
+    """det of (..., 3, 3) by the closed form (LAPACK per matrix is ~20x slower)."""
+    return (F[..., 0, 0] * (F[..., 1, 1] * F[..., 2, 2] - F[..., 1, 2] * F[..., 2, 1])
+            - F[..., 0, 1] * (F[..., 1, 0] * F[..., 2, 2] - F[..., 1, 2] * F[..., 2, 0])
+            + F[..., 0, 2] * (F[..., 1, 0] * F[..., 2, 1] - F[..., 1, 1] * F[..., 2, 0]))
 
 
 def _left_cauchy_green(F):
     """b = F F^T."""
-    return np.einsum("...ik,...jk->...ij", F, F)
+    return np.matmul(F, np.swapaxes(F, -1, -2))
 
 
 def _trace(A):
-    return np.einsum("...ii->...", A)
+    return A[..., 0, 0] + A[..., 1, 1] + A[..., 2, 2]
 
 
 def _outer(A, B):
-    return np.einsum("...ij,...kl->...ijkl", A, B)
+    return A[..., :, :, None, None] * B[..., None, None, :, :]
 
 
 # ---------------------------------------------------------------------------
@@ -95,7 +102,7 @@ def uncoupled_neo_hookean_energy(F, mu, kappa):
     F = _as_F(F)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         J = _safe_J(F)
-        trC = np.einsum("...ij,...ij->...", F, F)
+        trC = np.sum(F * F, axis=(-2, -1))
         lnJ = np.log(J)
         return 0.5 * mu * (J ** (-2.0 / 3.0) * trC - 3.0) + 0.5 * kappa * lnJ**2
 
@@ -154,7 +161,7 @@ def compressible_neo_hookean_energy(F, lam, mu):
     F = _as_F(F)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         J = _safe_J(F)
-        trC = np.einsum("...ij,...ij->...", F, F)
+        trC = np.sum(F * F, axis=(-2, -1))
         return 0.25 * lam * (J**2 - 1.0) - (0.5 * lam + mu) * np.log(J) + 0.5 * mu * (trC - 3.0)
 
 
@@ -196,7 +203,7 @@ def von_mises(sigma):
     """Von Mises equivalent stress sqrt(3/2 s:s), s = dev(sigma); shape (...)."""
     sigma = np.asarray(sigma, dtype=float)
     s = sigma - _trace(sigma)[..., None, None] / 3.0 * _I
-    return np.sqrt(1.5 * np.einsum("...ij,...ij->...", s, s))
+    return np.sqrt(1.5 * np.sum(s * s, axis=(-2, -1)))
 
 
 # ---------------------------------------------------------------------------
