@@ -8,11 +8,12 @@ from helpers import HERE, MPIEXEC, run_mpi
 pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
 
 
-@pytest.mark.parametrize("nranks,integrator", [(1, "quasi_static"), (1, "newmark"),
-                                               (2, "quasi_static"), (2, "newmark"),
-                                               (3, "newmark")])
-def test_assembled_jacobian_matches_finite_differences(nranks, integrator):
-    proc = run_mpi(nranks, [f"{HERE}/mpi/jacobian_check.py", integrator], timeout=300)
+@pytest.mark.parametrize("nranks,integrator,dim", [(1, "quasi_static", "2d"), (1, "newmark", "2d"),
+                                                   (2, "quasi_static", "2d"), (2, "newmark", "2d"),
+                                                   (3, "newmark", "2d"), (1, "newmark", "3d"),
+                                                   (2, "quasi_static", "3d")])
+def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim):
+    proc = run_mpi(nranks, [f"{HERE}/mpi/jacobian_check.py", integrator, dim], timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     error = float(re.search(r"relative_error=(\S+)", proc.stdout).group(1))
     assert error < 1e-6
@@ -31,6 +32,7 @@ def test_transfers_conserve_mass_and_momentum_on_1_2_3_ranks():
     assert counts.group(2).split(", ")[2] == "0"
     # global sums agree between rank counts to round-off
     sums = {n: [float(v) for v in re.findall(r"-?\d+\.\d*(?:e[-+]?\d+)?", out.splitlines()[1])] for n, out in outputs.items()}
+    assert all(len(v) == 3 for v in sums.values())     # mass and two momentum components
     for n in (2, 3):
         for a, b in zip(sums[n], sums[1]):
             assert abs(a - b) <= 1e-12 * max(abs(b), 1.0)

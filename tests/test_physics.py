@@ -120,3 +120,41 @@ def test_bar_in_tension_matches_analytic_stress():
     force = info["forces"]["puller"]
     assert force[0] < 0 and abs(force[0] + exact[0, 0] * 0.3 * lam_y) < 0.05 * exact[0, 0] * 0.3
     assert force[1] == 0.0
+
+
+def test_3d_patch_test_uniaxial_compression():
+    """3D: a cube between a frictionless platen and three symmetry planes,
+    compressed 5%: homogeneous uniaxial stress (sigma_xx = sigma_yy = 0) with
+    the analytic sigma_zz on every particle."""
+    config = validate({
+        "grid": {"lower": [0.0, 0.0, 0.0], "upper": [1.5, 1.5, 1.5], "cells": [6, 6, 6],
+                 "boundary": {"xmin": "roller", "ymin": "roller", "zmin": "roller"}},
+        "materials": {"m": {"model": "neo_hookean", "youngs_modulus": 200.0, "poisson_ratio": 0.3,
+                            "density": 1.0}},
+        "bodies": [
+            {"name": "cube", "material": "m", "particles_per_cell": 2,
+             "geometry": {"type": "box", "lower": [0, 0, 0], "upper": [1.0, 1.0, 1.0]}},
+            {"name": "platen", "rigid": True, "particles_per_cell": 2, "constrain": ["z"],
+             "velocity": [0.0, 0.0, -1.25],
+             "geometry": {"type": "box", "lower": [0, 0, 1.0], "upper": [1.5, 1.5, 1.25]}},
+        ],
+        "time": {"integrator": "quasi_static", "dt": 0.01, "end_time": 0.04},
+    })
+    sim = Simulation(config, MPI.COMM_WORLD)
+    info = run(sim, 4, 0.01)
+    stretch = (1.0 - 0.0125) ** 4
+    material = make_material(config["materials"]["m"])
+
+    def stress(lam):
+        return material.stress(np.diag([lam, lam, stretch])[None])[0]
+    lam = 1.0
+    for _ in range(60):
+        slope = (stress(lam + 1e-7)[0, 0] - stress(lam - 1e-7)[0, 0]) / 2e-7
+        lam -= stress(lam)[0, 0] / slope
+    exact = stress(lam)
+    sigma = sim.particles["stress"]
+    assert len(sigma) == 512
+    assert abs(exact[2, 2]) > 5.0
+    assert np.max(np.abs(sigma - exact)) < 1e-8 * abs(exact[2, 2])
+    assert np.allclose(sim.particles["F"], np.diag([lam, lam, stretch]), rtol=0, atol=1e-10)
+    assert info["forces"]["platen"][2] < 0

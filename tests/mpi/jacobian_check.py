@@ -18,6 +18,7 @@ from pimpm.config import validate
 from pimpm.simulation import Simulation
 
 integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
+three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 comm = MPI.COMM_WORLD
 raw = {
     "grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8],
@@ -36,6 +37,18 @@ raw = {
     ],
     "time": {"integrator": integrator, "dt": 0.01, "end_time": 1.0, "gravity": [0.0, -981.0]},
 }
+if three_d:
+    raw["grid"] = {"lower": [0.0, 0.0, 0.0], "upper": [2.5, 2.0, 2.0], "cells": [5, 4, 4],
+                   "boundary": {"xmin": "roller", "zmin": "roller"}}
+    raw["bodies"] = [
+        {"name": "a", "material": "m", "particles_per_cell": 2, "velocity": [1.0, 2.0, -1.0],
+         "geometry": {"type": "box", "lower": [0, 0.5, 0], "upper": [1.5, 1.5, 1.0]}},
+        {"name": "b", "material": "c", "particles_per_cell": 2,
+         "geometry": {"type": "ball", "center": [1.0, 1.0, 1.25], "radius": 0.25}},
+        {"name": "platen", "rigid": True, "particles_per_cell": 2, "velocity": [0.0, 0.0, -10.0],
+         "geometry": {"type": "box", "lower": [0, 0, 1.5], "upper": [2.0, 2.0, 2.0]}},
+    ]
+    raw["time"]["gravity"] = [0.0, 0.0, -981.0]
 sim = Simulation(validate(raw), comm)
 sim.advance(0.01)
 sim.advance(0.01)
@@ -78,7 +91,7 @@ fixed_rows = J_local[state.fixed]
 diag_ok = comm.allreduce(bool(np.all(np.abs(fixed_rows.sum(axis=1) - state.constraint_scale)
                                      <= 1e-12 * state.constraint_scale)), op=MPI.LAND)
 if comm.rank == 0:
-    print(f"jacobian_check {integrator} ranks={comm.size} free_dofs={n_free} "
+    print(f"jacobian_check {integrator} dim={sim.dim} ranks={comm.size} free_dofs={n_free} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok}")
 ok = err / scale < 1e-6 and diag_ok and n_free > 20
 sys.exit(0 if ok else 1)
