@@ -52,8 +52,12 @@ MATERIAL_KEYS = ("model", "density", "shear_modulus", "bulk_modulus",
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "constrain")
 GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius")}
-TIME_KEYS = ("integrator", "dt", "end_time", "gravity")
-SOLVER_KEYS = ("petsc",)
+TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
+             "max_cuts", "easy_newton_iterations", "max_particle_displacement")
+SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc")
+CONVERGENCE_KEYS = ("test", "displacement_tolerance", "energy_tolerance")
+SOLVER_PRESETS = ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free")
+CONVERGENCE_TESTS = ("petsc", "guilkey_weiss")
 OUTPUT_KEYS = ("directory", "every")
 
 ROOT = "(top level)"
@@ -463,7 +467,23 @@ def _validate_time(value, path, dim):
     gravity = sec.optional("gravity")
     gravity = [0.0] * dim if gravity is _MISSING else \
         _float_vector(gravity, sec.sub("gravity"), dim)
-    return {"integrator": integ, "dt": dt, "end_time": end_time, "gravity": gravity}
+    dt_initial = sec.optional("dt_initial")
+    dt_initial = dt if dt_initial is _MISSING else _positive(dt_initial, sec.sub("dt_initial"))
+    if dt_initial > dt:
+        _fail(sec.sub("dt_initial"), dt_initial, f"a number <= time.dt = {_fmt(dt)}")
+    ramp = sec.optional("ramp_factor")
+    ramp = 1.2 if ramp is _MISSING else _float(ramp, sec.sub("ramp_factor"), "a number >= 1")
+    if ramp < 1.0:
+        _fail(sec.sub("ramp_factor"), ramp, "a number >= 1")
+    cuts = sec.optional("max_cuts")
+    cuts = 4 if cuts is _MISSING else _int(cuts, sec.sub("max_cuts"), minimum=0)
+    easy = sec.optional("easy_newton_iterations")
+    easy = 6 if easy is _MISSING else _int(easy, sec.sub("easy_newton_iterations"), minimum=1)
+    limit = sec.optional("max_particle_displacement")
+    limit = None if limit is _MISSING else _positive(limit, sec.sub("max_particle_displacement"))
+    return {"integrator": integ, "dt": dt, "end_time": end_time, "gravity": gravity,
+            "dt_initial": dt_initial, "ramp_factor": ramp, "max_cuts": cuts,
+            "easy_newton_iterations": easy, "max_particle_displacement": limit}
 
 
 def _petsc_value(value, path):
@@ -497,7 +517,20 @@ def _validate_solver(value, path):
         if name in petsc:
             _fail(kpath, key, f"each PETSc option given once ({name!r} is repeated)")
         petsc[name] = _petsc_value(val, kpath)
-    return {"petsc": petsc}
+    preset = sec.optional("preset")
+    preset = "mumps" if preset is _MISSING else _enum(preset, sec.sub("preset"), SOLVER_PRESETS)
+    fallback = sec.optional("fallback")
+    fallback = True if fallback is _MISSING else _bool(fallback, sec.sub("fallback"))
+    conv = _Section(_optional_mapping(sec.optional("convergence")), sec.sub("convergence"),
+                    CONVERGENCE_KEYS)
+    test = conv.optional("test")
+    test = "petsc" if test is _MISSING else _enum(test, conv.sub("test"), CONVERGENCE_TESTS)
+    tols = {}
+    for key, default in (("displacement_tolerance", 1e-6), ("energy_tolerance", 1e-12)):
+        v = conv.optional(key)
+        tols[key] = default if v is _MISSING else _positive(v, conv.sub(key))
+    return {"preset": preset, "fallback": fallback,
+            "convergence": dict(test=test, **tols), "petsc": petsc}
 
 
 def _validate_output(value, path, source_name):

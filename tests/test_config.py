@@ -90,8 +90,13 @@ def test_base_config_normalizes_with_defaults():
                       "particles_per_cell": [2, 2], "velocity": [0.0, -50.0],
                       "constrain": ["x", "y"]}
     assert cfg["time"] == {"integrator": "quasi_static", "dt": 0.005, "end_time": 0.2,
-                           "gravity": [0.0, 0.0]}
-    assert cfg["solver"] == {"petsc": {}}
+                           "gravity": [0.0, 0.0], "dt_initial": 0.005, "ramp_factor": 1.2,
+                           "max_cuts": 4, "easy_newton_iterations": 6,
+                           "max_particle_displacement": None}
+    assert cfg["solver"] == {"preset": "mumps", "fallback": True,
+                             "convergence": {"test": "petsc", "displacement_tolerance": 1e-6,
+                                             "energy_tolerance": 1e-12},
+                             "petsc": {}}
     assert cfg["output"] == {"directory": "pimpm_output", "every": 1}
     assert list(cfg) == ["title", "dim", "grid", "kinematics", "materials", "bodies", "time",
                          "solver", "output"]
@@ -415,6 +420,19 @@ BAD = [
     ("petsc repeated option", _set("solver", {"petsc": {"ksp_type": "cg", "-ksp_type": "gmres"}}),
      ["solver.petsc.-ksp_type = '-ksp_type'", "given once"]),
     ("title not a string", _set("title", 42), ["title = 42", "expected a string"]),
+    ("unknown preset", _set("solver", {"preset": "superlu"}),
+     ["solver.preset = 'superlu'", "mumps", "cg-gamg", "jfnk", "matrix-free"]),
+    ("unknown convergence test", _set("solver", {"convergence": {"test": "gw"}}),
+     ["solver.convergence.test = 'gw'", "guilkey_weiss"]),
+    ("negative energy tolerance", _set("solver", {"convergence": {"energy_tolerance": -1}}),
+     ["solver.convergence.energy_tolerance = -1", "expected a positive number"]),
+    ("fallback not bool", _set("solver", {"fallback": "yes"}),
+     ["solver.fallback = 'yes'", "true or false"]),
+    ("ramp below one", _set("time.ramp_factor", 0.5), ["time.ramp_factor = 0.5", "a number >= 1"]),
+    ("dt_initial above dt", _set("time.dt_initial", 1.0), ["time.dt_initial = 1.0", "<= time.dt"]),
+    ("negative max_cuts", _set("time.max_cuts", -1), ["time.max_cuts = -1", "integer >= 0"]),
+    ("zero particle displacement limit", _set("time.max_particle_displacement", 0),
+     ["time.max_particle_displacement = 0", "positive"]),
 ]
 
 
