@@ -89,7 +89,9 @@ def main(argv=None):
         sim = Simulation(config, comm)
         if comm.rank == 0:
             print("\n".join(summary(sim, config)))
+            print(f"  solver    {sim.solver.describe()}")
             print("pimpm: input is valid")
+        sim.solver.destroy()
         return 0
     try:
         return run(config, comm, overwrite=args.overwrite)

@@ -9,8 +9,8 @@ import numpy as np
 
 from .output import ResultWriter
 from .simulation import Simulation, StepFailed
+from .stages import log_stage
 
-MAX_CUTS = 4   # a failed step is retried as two half steps, at most this many times
 OUTPUT_FILES = ("results.h5", "particles.xdmf", "grid.xdmf", "history.csv")
 
 
@@ -92,6 +92,7 @@ class History:
         self.rigid_names = rigid_names
         self.dim = dim
         self.columns = ["step", "time", "dt", "newton_iterations", "linear_iterations",
+                        "backtracks", "linear_fallbacks", "step_cuts",
                         "residual_initial", "residual_final", "kinetic_energy", "strain_energy"]
         for name in rigid_names:
             self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
@@ -107,7 +108,8 @@ class History:
         if self.file is None:
             return
         row = [info["step"], repr(info["time"]), repr(info["dt"]), info["newton_iterations"],
-               info["linear_iterations"], repr(info["residual_initial"]), repr(info["residual_final"]),
+               info["linear_iterations"], info["backtracks"], info["linear_fallbacks"],
+               info["step_cuts"], repr(info["residual_initial"]), repr(info["residual_final"]),
                repr(info["kinetic_energy"]), repr(info["strain_energy"])]
         for name in self.rigid_names:
             row += [repr(float(f)) for f in info["forces"][name]]
@@ -124,10 +126,58 @@ class History:
 def progress_line(info, rigid_names):
     forces = " ".join(f"{name} F=(" + ", ".join(f"{f:.4e}" for f in info["forces"][name]) + ")"
                       for name in rigid_names)
+    notes = ""
+    if info["backtracks"]:
+        notes += f"  backtracks {info['backtracks']}"
+    if info["linear_fallbacks"]:
+        notes += f"  direct fallbacks {info['linear_fallbacks']}"
+    if info["step_cuts"]:
+        notes += f"  dt cuts {info['step_cuts']}"
     return (f"step {info['step']:5d}  t {info['time']:.5e}  dt {info['dt']:.3e}  "
             f"newton {info['newton_iterations']:2d}  linear {info['linear_iterations']:4d}  "
             f"|R| {info['residual_initial']:.3e} -> {info['residual_final']:.3e}  {forces}  "
-            f"wall {info['wall_time']:.2f} s")
+            f"wall {info['wall_time']:.2f} s{notes}")
+
+
+class TimeStepControl:
+    """Step sizes: an optional ramp from ``dt_initial`` up to ``dt`` by at most
+    ``ramp_factor`` per step (Sulsky & Kaul 3.1.1 use 20%); a failed step is
+    cut in half and retried, at most ``max_cuts`` times in a row; after a cut,
+    dt grows back by ``ramp_factor`` after each easy step (at most
+    ``easy_newton_iterations`` Newton iterations). The last step is shortened
+    to land on ``end_time``."""
+
+    def __init__(self, time_config):
+        self.target = time_config["dt"]
+        self.dt = time_config["dt_initial"]
+        self.ramp = time_config["ramp_factor"]
+        self.max_cuts = time_config["max_cuts"]
+        self.easy = time_config["easy_newton_iterations"]
+        self.end = time_config["end_time"]
+        self.cuts = 0               # consecutive cuts of the current step
+
+    def done(self, time):
+        return time >= self.end * (1.0 - 1e-12)
+
+    def next_dt(self, time):
+        remaining = self.end - time
+        dt = self.dt
+        # land on end_time exactly, without leaving a sliver for one more step
+        return remaining if dt >= remaining * (1.0 - 1e-9) else dt
+
+    def failed(self):
+        """Cut the step; False when no cut is left."""
+        if self.cuts >= self.max_cuts:
+            return False
+        self.cuts += 1
+        self.dt *= 0.5
+        return True
+
+    def succeeded(self, newton_iterations):
+        cuts, self.cuts = self.cuts, 0
+        if newton_iterations <= self.easy and self.dt < self.target:
+            self.dt = min(self.target, self.dt * self.ramp)
+        return cuts
 
 
 def run(config, comm, overwrite=False, echo=print):
@@ -139,37 +189,42 @@ def run(config, comm, overwrite=False, echo=print):
     sim = Simulation(config, comm)
     for line in summary(sim, config):
         say(line)
+    say(f"  solver    {sim.solver.describe()}")
     writer = ResultWriter(comm, directory, sim.dim, sim.grid.lower, sim.grid.spacing, sim.grid.nodes)
     rigid_names = [name for _, name, _, _ in sim.rigid_bodies]
     history = History(comm, os.path.join(directory, "history.csv"), rigid_names, sim.dim)
     every = config["output"]["every"]
-    sizes = step_times(config["time"]["end_time"], config["time"]["dt"])
+    control = TimeStepControl(config["time"])
     start = wallclock.perf_counter()
     status = 0
+    written = -1
     try:
         write_results(sim, writer)
-        queue = list(sizes)
-        smallest = min(sizes) / 2**MAX_CUTS
-        while queue:
-            dt = queue.pop(0)
+        written = sim.step_index
+        while not control.done(sim.time):
+            dt = control.next_dt(sim.time)
             try:
                 info = sim.advance(dt)
             except StepFailed as failure:
-                if dt / 2 >= smallest * (1 - 1e-12):
-                    say(f"pimpm: {failure}; cutting the step to {dt / 2:.4g} and retrying")
-                    queue[:0] = [dt / 2, dt / 2]
+                if control.failed():
+                    say(f"pimpm: {failure}; cutting the step to {control.dt:.4g} and retrying")
                     continue
-                say(f"pimpm: error: {failure}, even after {MAX_CUTS} step cuts. Results up to "
-                    f"step {sim.step_index} (t = {sim.time:.6g}) are in {directory}.")
+                say(f"pimpm: error: {failure}, even after {control.max_cuts} step cuts. Results up "
+                    f"to step {sim.step_index} (t = {sim.time:.6g}) are in {directory}.")
                 status = 1
                 break
+            info["step_cuts"] = control.succeeded(info["newton_iterations"])
             history.write(info)
             say(progress_line(info, rigid_names), flush=True)
-            if info["step"] % every == 0 or not queue:
+            if info["step"] % every == 0 or control.done(sim.time):
                 write_results(sim, writer)
+                written = sim.step_index
+        if status and written != sim.step_index:
+            write_results(sim, writer)             # keep the last good state
     finally:
         writer.close()
         history.close()
+        sim.solver.destroy()
     if status == 0:
         say(f"pimpm: finished {sim.step_index} steps in {wallclock.perf_counter() - start:.1f} s; "
             f"results in {directory}/ (particles.xdmf, grid.xdmf, history.csv)")
@@ -177,7 +232,6 @@ def run(config, comm, overwrite=False, echo=print):
 
 
 def write_results(sim, writer):
-    sim.stages["Output"].push()
-    writer.write_step(sim.step_index, sim.time, sim.particle_output(), sim.grid_output(),
-                      sim.grid.owned_box())
-    sim.stages["Output"].pop()
+    with log_stage(sim.stages["Output"]):
+        writer.write_step(sim.step_index, sim.time, sim.particle_output(), sim.grid_output(),
+                          sim.grid.owned_box())

@@ -15,6 +15,9 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import assembly, smallmat
+from .convergence import GuilkeyWeissTest
+from .stages import log_stage
+from .linear import FALLBACK_OPTIONS, PRESETS, FallbackKSP, TangentShell, rigid_body_near_null_space
 from .transfer import gradient_at_particles, scatter
 
 
@@ -73,32 +76,110 @@ def constitutive_update(state, F, tangent):
 
 class ImplicitSolver:
     """PETSc objects of the implicit solve: SNES on the DMDA, the tangent
-    matrix (exactly preallocated by the DMDA), residual and work vectors."""
+    matrix (exactly preallocated by the DMDA, or a shell for the matrix-free
+    preset), residual and work vectors.
 
-    def __init__(self, grid, options=None, stages=None):
+    The residual is made dimensionless by ``residual_scale`` (Sulsky & Kaul
+    3.2.2: Young's modulus times h^(dim-1), a force per unit thickness in
+    2D), so tolerances mean the same at any scale. Reactions are computed
+    from :meth:`unconstrained_residual`, which is not scaled.
+    """
+
+    def __init__(self, grid, solver_config, default_options, residual_scale, stages=None):
         self.grid = grid
         self.da = grid.da
         self.state = None
         self.stages = stages or {}
-        self.J = self.da.createMat()
-        self.J.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        self.residual_scale = float(residual_scale)
+        db = PETSc.Options()
+        self.preset = db.getString("pimpm_preset", solver_config["preset"])
+        if self.preset not in PRESETS:
+            raise ValueError(f"-pimpm_preset {self.preset}: expected one of {', '.join(PRESETS)}")
+        preset_options, iterative, spd, self.matrix_free = PRESETS[self.preset]
+        self.fallback = None
+        use_fallback = iterative and not self.matrix_free and db.getBool(
+            "pimpm_fallback", solver_config["fallback"])
+        options = dict(default_options)
+        options.update(preset_options)
+        if use_fallback:
+            options.update(FALLBACK_OPTIONS)
+        options.update(solver_config["petsc"])          # the YAML refines the preset
+        self.options = options
+        conv = solver_config["convergence"]
+        test = db.getString("pimpm_convergence_test", conv["test"])
+        self.gw_test = None
+        if test == "guilkey_weiss":
+            self.gw_test = GuilkeyWeissTest(
+                db.getReal("pimpm_gw_displacement_tol", conv["displacement_tolerance"]),
+                db.getReal("pimpm_gw_energy_tol", conv["energy_tolerance"]))
+        elif test != "petsc":
+            raise ValueError(f"-pimpm_convergence_test {test}: expected petsc or guilkey_weiss")
+
         self.X = self.da.createGlobalVec()
         self.R = self.da.createGlobalVec()
         self.diag = self.da.createGlobalVec()
-        self.snes = PETSc.SNES().create(comm=self.da.getComm())
+        comm = self.da.getComm()
+        if self.matrix_free:
+            self.shell = TangentShell(grid)
+            n_local, n_global = self.X.getLocalSize(), self.X.getSize()
+            self.J = PETSc.Mat().createPython(((n_local, n_global), (n_local, n_global)),
+                                              context=self.shell, comm=comm)
+            self.J.setUp()
+        else:
+            self.shell = None
+            self.J = self.da.createMat()
+            self.J.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+            if spd:
+                self.J.setOption(PETSc.Mat.Option.SPD, True)
+            if iterative:
+                self.J.setNearNullSpace(rigid_body_near_null_space(grid))
+        self.snes = PETSc.SNES().create(comm=comm)
         self.snes.setDM(self.da)
         self.snes.setFunction(self._form_residual, self.R)
         self.snes.setJacobian(self._form_jacobian, self.J, self.J)
-        self.snes.setConvergenceHistory(length=1000, reset=True)
-        with scoped_options(options or {}):
+        if self.gw_test is not None:
+            self.snes.setConvergenceTest(self.gw_test)
+        if use_fallback:
+            ksp = self.snes.getKSP()
+            ksp.setOptionsPrefix("pimpm_outer_")       # the inner solvers read -ksp_*, -pc_*
+            ksp.setType(PETSc.KSP.Type.PYTHON)
+            self.fallback = FallbackKSP()
+            ksp.setPythonContext(self.fallback)
+        with scoped_options(options):
             self.snes.setFromOptions()
+            if use_fallback:
+                self.snes.getKSP().setUp()
         self.row_offset = self.X.getOwnershipRange()[0]
         self.inverted = False
+        self.residual_evaluations = 0
 
-    # ----------------------------------------------------------------- SNES callbacks
-    def _stage(self, name):
-        return self.stages.get(name)
+    def destroy(self):
+        """Free the PETSc objects now (collective); Python contexts held by
+        PETSc (python KSP, shell matrix) must not outlive PetscFinalize."""
+        if self.fallback is not None and self.fallback.iterative is not None:
+            self.fallback.iterative.destroy()
+            self.fallback.direct.destroy()
+        for obj in (self.snes, self.J, self.X, self.R, self.diag):
+            obj.destroy()
 
+    def describe(self):
+        """One line naming the solver (for the run summary)."""
+        ksp = self.snes.getKSP()
+        if self.fallback is not None:
+            inner = self.fallback.iterative
+            linear = (f"{inner.getType()}+{inner.getPC().getType()} with direct fallback "
+                      f"({self.fallback.direct.getType()}+{self.fallback.direct.getPC().getType()})")
+        else:
+            linear = f"{ksp.getType()}+{ksp.getPC().getType()}"
+        test = "Guilkey-Weiss eq. 13" if self.gw_test else "PETSc (rtol/atol/stol)"
+        db = PETSc.Options()
+        line_search = db.getString("snes_linesearch_type", self.options.get("snes_linesearch_type", "bt"))
+        operator = ", matrix-free operator" if (db.hasName("snes_mf_operator")
+                                                or "snes_mf_operator" in self.options) else ""
+        return (f"preset {self.preset}: SNES {self.snes.getType()} (line search {line_search}"
+                f"{operator}), linear {linear}, convergence {test}")
+
+    # ----------------------------------------------------------------- kernels
     def internal_force(self, sigma, F_inc):
         """Fint on owned dofs (summed over ranks) for stresses and increments."""
         st = self.state
@@ -125,71 +206,100 @@ class ImplicitSolver:
 
     def unconstrained_residual(self, u_owned, u_local):
         """-Q of G&W step 3 before constraints: Fint + M a - Fext (owned
-        dofs), or None if a particle inverted."""
+        dofs, in force units), or None if a particle inverted."""
         st = self.state
         kin = self._kinematics(u_local)
         if kin is None:
             return None
         F_inc, F = kin
-        sigma, _ = constitutive_update(st, F, tangent=False)
+        with self._stage("Constitutive update"):
+            sigma, _ = constitutive_update(st, F, tangent=False)
         r = self.internal_force(sigma, F_inc) - st.external_force
         if st.dynamic:
             r += st.inertia(u_owned)
         return r
 
+    def _stage(self, name):
+        return log_stage(self.stages.get(name))
+
+    # ----------------------------------------------------------------- SNES callbacks
     def _form_residual(self, snes, X, R):
         st = self.state
+        self.residual_evaluations += 1
         u_local = self.grid.vec_to_local(X)
         u = X.getArray(readonly=True)
         r = R.getArray()
         unconstrained = self.unconstrained_residual(u, u_local)
         if unconstrained is None:
-            # A domain error: an infinite residual makes SNES stop with
-            # DIVERGED_FNORM_NAN (or the line search back off).
+            # A domain error: an infinite residual makes the line search back
+            # off (bt) or SNES stop with DIVERGED_FNORM_NAN.
             r[:] = np.inf
             return
-        r[:] = unconstrained
-        r[st.fixed] = st.constraint_scale * (u[st.fixed] - st.fixed_value[st.fixed])
+        r[:] = unconstrained / self.residual_scale
+        r[st.fixed] = (st.constraint_scale / self.residual_scale) * (u[st.fixed] - st.fixed_value[st.fixed])
 
     def _form_jacobian(self, snes, X, J, P):
         st = self.state
         grid = self.grid
         u_local = grid.vec_to_local(X)
-        P.zeroEntries()
         kin = self._kinematics(u_local)
+        if self.matrix_free:
+            if kin is not None:
+                with self._stage("Constitutive update"):
+                    sigma, c = constitutive_update(st, kin[1], tangent=True)
+                self.shell.update(st, sigma, c, kin[0], self.residual_scale)
+            P.assemble()
+            if J != P:
+                J.assemble()
+            return
+        with self._stage("Assembly"):
+            P.zeroEntries()
         if kin is not None and len(kin[1]):
             F_inc, F = kin
-            sigma, c = constitutive_update(st, F, tangent=True)
-            Ke = assembly.element_tangents(sigma, c, F_inc, st.G, st.volume_n)
-            Ke = assembly.sum_by_group(Ke, st.cell_starts)
-            nodes = st.cell_nodes.astype(PETSc.IntType)
-            P.setValuesBlockedLocalRCV(nodes, nodes, Ke.reshape(len(nodes), -1),
-                                       addv=PETSc.InsertMode.ADD_VALUES)
-        P.assemble()
-        if st.dynamic:
-            self.diag.getArray()[:] = 4.0 / st.dt**2 * st.mass
-            P.setDiagonal(self.diag, addv=PETSc.InsertMode.ADD_VALUES)
-        rows = (np.nonzero(st.fixed)[0] + self.row_offset).astype(PETSc.IntType)
-        P.zeroRowsColumns(rows, diag=st.constraint_scale)
-        if J != P:
-            J.assemble()
+            with self._stage("Constitutive update"):
+                sigma, c = constitutive_update(st, F, tangent=True)
+            with self._stage("Assembly"):
+                Ke = assembly.element_tangents(sigma, c, F_inc, st.G, st.volume_n)
+                Ke = assembly.sum_by_group(Ke, st.cell_starts)
+                nodes = st.cell_nodes.astype(PETSc.IntType)
+                P.setValuesBlockedLocalRCV(nodes, nodes, Ke.reshape(len(nodes), -1),
+                                           addv=PETSc.InsertMode.ADD_VALUES)
+        with self._stage("Assembly"):
+            P.assemble()
+            if st.dynamic:
+                self.diag.getArray()[:] = 4.0 / st.dt**2 * st.mass
+                P.setDiagonal(self.diag, addv=PETSc.InsertMode.ADD_VALUES)
+            rows = (np.nonzero(st.fixed)[0] + self.row_offset).astype(PETSc.IntType)
+            P.zeroRowsColumns(rows, diag=st.constraint_scale)
+            P.scale(1.0 / self.residual_scale)
+            if J != P:
+                J.assemble()
 
     # ----------------------------------------------------------------- solve
     def solve(self, state, initial_guess):
         """Newton on the incremental grid displacement. Returns (u_owned, info)."""
         self.state = state
         self.inverted = False
+        self.residual_evaluations = 0
+        fallbacks_before = self.fallback.fallbacks if self.fallback else 0
         self.X.getArray()[:] = initial_guess
         self.snes.setConvergenceHistory(length=1000, reset=True)
-        self.snes.solve(None, self.X)
+        with self._stage("Solve"):
+            self.snes.solve(None, self.X)
         reason = self.snes.getConvergedReason()
         norms, lits = self.snes.getConvergenceHistory()
+        its = self.snes.getIterationNumber()
+        linear = self.snes.getLinearSolveIterations()
+        mf = PETSc.Options().hasName("snes_mf_operator") or "snes_mf_operator" in self.options
+        extra = self.residual_evaluations - 1 - its - (linear if mf else 0)
         info = {
             "reason": int(reason),
             "reason_name": _reason_name(reason),
             "converged": reason > 0,
-            "newton_iterations": self.snes.getIterationNumber(),
-            "linear_iterations": self.snes.getLinearSolveIterations(),
+            "newton_iterations": its,
+            "linear_iterations": linear,
+            "backtracks": max(0, int(extra)),
+            "linear_fallbacks": (self.fallback.fallbacks - fallbacks_before) if self.fallback else 0,
             "residual_history": np.array(norms, dtype=float),
             "inverted": bool(self.grid.comm.allreduce(self.inverted)),
         }

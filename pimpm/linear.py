@@ -8,7 +8,7 @@ choice can be refined or overridden from the command line.
 import numpy as np
 from petsc4py import PETSc
 
-from . import assembly
+from . import assembly, smallmat
 from .transfer import gradient_at_particles, scatter
 
 #: name -> (PETSc options, iterative?, symmetric positive definite?, matrix-free?)
@@ -106,7 +106,7 @@ class TangentShell:
         self.state = state
         self.scale = scale
         self.g = assembly.current_gradients(F_inc, state.G)
-        self.v = state.volume_n * np.linalg.det(F_inc[:, :dim, :dim]) if n else np.zeros(0)
+        self.v = state.volume_n * smallmat.det(F_inc[:, :dim, :dim])
         a = c[:, :dim, :dim, :dim, :dim].copy()
         for k in range(dim):
             a[:, k, :, k, :] += sigma[:, :dim, :dim]

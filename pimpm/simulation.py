@@ -14,6 +14,7 @@ from .implicit import ImplicitSolver, StepState, constitutive_update, particle_k
 from .materials import make_material, von_mises
 from .particles import ParticleSet, migrate, seed_body
 from .shape import make_shape
+from .stages import log_stage, log_stages
 from .transfer import grid_to_particle, particle_to_grid
 
 
@@ -22,23 +23,26 @@ class StepFailed(Exception):
     left the grid). The state of the simulation is the last good step."""
 
 
-def default_solver_options(config, materials):
-    """Program defaults for PETSc options (YAML and command line override)."""
+#: program defaults for PETSc options (the preset, then the YAML, then the command line override)
+DEFAULT_SOLVER_OPTIONS = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "bt",
+    "snes_rtol": "1e-10",
+    "snes_atol": "1e-12",        # the residual is dimensionless (Sulsky & Kaul 3.2.2)
+    "snes_max_it": "30",
+}
+
+
+def residual_scale(config, materials):
+    """Sulsky & Kaul 3.2.2: the largest Young's modulus times h^(dim-1) (a
+    force per unit thickness in 2D, a force in 3D) makes the residual
+    dimensionless."""
     dim = config["dim"]
     h = float(np.min((np.asarray(config["grid"]["upper"]) - np.asarray(config["grid"]["lower"]))
                      / np.asarray(config["grid"]["cells"])))
-    stiffness = max(m.bulk_modulus + 4.0 / 3.0 * m.shear_modulus for m in materials)
-    force_scale = stiffness * h ** (dim - 1)
-    return {
-        "snes_type": "newtonls",
-        "snes_linesearch_type": "bt",
-        "snes_rtol": "1e-10",
-        "snes_atol": repr(1e-12 * force_scale),
-        "snes_max_it": "30",
-        "ksp_type": "preonly",
-        "pc_type": "lu",
-        "pc_factor_mat_solver_type": "mumps",
-    }
+    young = max(9.0 * m.bulk_modulus * m.shear_modulus / (3.0 * m.bulk_modulus + m.shear_modulus)
+                for m in materials)
+    return young * h ** (dim - 1)
 
 
 class Simulation:
@@ -71,11 +75,9 @@ class Simulation:
         self.count0 = self.particles.global_count(comm)
         self.rigid_count0 = self.rigid.global_count(comm)
         self.mass0 = float(self.particles.global_sum(comm, "mass"))
-        self.stages = {name: PETSc.Log.Stage(name) for name in
-                       ("P2G", "Newton solve", "G2P", "Migration", "Output")}
-        options = default_solver_options(config, self.materials)
-        options.update(config.get("solver", {}).get("petsc", {}))
-        self.solver = ImplicitSolver(self.grid, options)
+        self.stages = log_stages()
+        self.solver = ImplicitSolver(self.grid, config["solver"], DEFAULT_SOLVER_OPTIONS,
+                                     residual_scale(config, self.materials), self.stages)
         self.last_grid = None
 
     # ----------------------------------------------------------------- seeding
@@ -187,23 +189,48 @@ class Simulation:
         Raises StepFailed, leaving the particles as they were."""
         t0 = wallclock.perf_counter()
         comm, grid, p = self.comm, self.grid, self.particles
-        self.stages["P2G"].push()
-        state, cons = self.prepare_step(dt)                       # steps 1-2
-        self.stages["P2G"].pop()
+        with log_stage(self.stages["P2G"]):
+            state, cons = self.prepare_step(dt)                   # steps 1-2
 
-        self.stages["Newton solve"].push()
         guess = np.where(state.fixed, state.fixed_value, self.predictor(state))
         if self.solver.inverts(state, guess):                    # G&W step 2: u = 0
             guess = np.where(state.fixed, state.fixed_value, 0.0)
         u, info = self.solver.solve(state, guess)                 # steps 3-6
-        self.stages["Newton solve"].pop()
         if not info["converged"]:
             why = "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"]
             raise StepFailed(f"Newton did not converge at step {self.step_index + 1} "
                              f"(t = {self.time + dt:.6g}, dt = {dt:.6g}): {why} after "
                              f"{info['newton_iterations']} iterations")
+        with log_stage(self.stages["G2P"]):
+            forces, v_new, a_new = self.update_particles(state, cons, u, dt)   # step 7
+        with log_stage(self.stages["Migration"]):
+            self.migrate()                                        # step 8
 
-        self.stages["G2P"].push()
+        self.time += dt
+        self.step_index += 1
+        self.last_grid = {"mass": state.mass, "velocity": v_new, "acceleration": a_new,
+                          "displacement_increment": u}
+        history = info["residual_history"]
+        return {
+            "step": self.step_index, "time": self.time, "dt": dt,
+            "newton_iterations": info["newton_iterations"],
+            "linear_iterations": info["linear_iterations"],
+            "backtracks": info["backtracks"],
+            "linear_fallbacks": info["linear_fallbacks"],
+            "residual_initial": float(history[0]) if len(history) else 0.0,
+            "residual_final": float(history[-1]) if len(history) else 0.0,
+            "residual_history": history,
+            "forces": forces,
+            "kinetic_energy": self.kinetic_energy(),
+            "strain_energy": self.strain_energy(),
+            "wall_time": wallclock.perf_counter() - t0,
+        }
+
+    def update_particles(self, state, cons, u, dt):
+        """G&W step 7: reactions, a_g(t+dt) from eq. 16, and the particle
+        update. Raises StepFailed (particles untouched) if a particle would
+        leave the grid or move farther than the Lagrangian limit."""
+        comm, grid, p = self.comm, self.grid, self.particles
         u_local = grid.owned_to_local(u)
         raw = self.solver.unconstrained_residual(u, u_local)      # Fint + M a - Fext
         forces = {}
@@ -211,7 +238,7 @@ class Simulation:
             local = np.where(mask, raw, 0.0).reshape(-1, self.dim).sum(axis=0)
             forces[name] = comm.allreduce(local, op=MPI.SUM)
 
-        # step 7: converged state, a_g(t+dt) from eq. 16, interpolate to particles
+        # converged state, a_g(t+dt) from eq. 16, interpolate to particles
         F_inc, F, _ = particle_kinematics(state, u_local)
         sigma, _ = constitutive_update(state, F, tangent=False)
         if self.dynamic:
@@ -229,6 +256,14 @@ class Simulation:
         if comm.allreduce(outside) > 0:
             raise StepFailed(f"particles would leave the grid at step {self.step_index + 1} "
                              f"(t = {self.time + dt:.6g}); enlarge grid.lower/upper")
+        limit = self.config["time"]["max_particle_displacement"]
+        if limit is not None:
+            moved = np.max(np.abs(u_p) / grid.spacing) if len(u_p) else 0.0
+            moved = comm.allreduce(float(moved), op=MPI.MAX)
+            if moved > limit:
+                raise StepFailed(f"a particle would move {moved:.3g} cells at step "
+                                 f"{self.step_index + 1} (t = {self.time + dt:.6g}, dt = {dt:.6g}); "
+                                 f"time.max_particle_displacement is {limit:g}")
         p["x"] = new_x
         if self.dynamic:
             p["v"] = p["v"] + 0.5 * dt * (p["a"] + a_p)
@@ -239,29 +274,7 @@ class Simulation:
         p["F"] = F
         p["stress"] = sigma
         self.rigid["x"] = new_rigid_x
-        self.stages["G2P"].pop()
-
-        self.stages["Migration"].push()
-        self.migrate()
-        self.stages["Migration"].pop()                            # step 8
-
-        self.time += dt
-        self.step_index += 1
-        self.last_grid = {"mass": state.mass, "velocity": v_new, "acceleration": a_new,
-                          "displacement_increment": u}
-        history = info["residual_history"]
-        return {
-            "step": self.step_index, "time": self.time, "dt": dt,
-            "newton_iterations": info["newton_iterations"],
-            "linear_iterations": info["linear_iterations"],
-            "residual_initial": float(history[0]) if len(history) else 0.0,
-            "residual_final": float(history[-1]) if len(history) else 0.0,
-            "residual_history": history,
-            "forces": forces,
-            "kinetic_energy": self.kinetic_energy(),
-            "strain_energy": self.strain_energy(),
-            "wall_time": wallclock.perf_counter() - t0,
-        }
+        return forces, v_new, a_new
 
     # ----------------------------------------------------------------- migration
     def migrate(self):

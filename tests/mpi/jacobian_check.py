@@ -88,8 +88,9 @@ scale = comm.allreduce(float(np.max(np.abs(B))) if B.size else 0.0, op=MPI.MAX)
 n_free = comm.allreduce(int(free_local.sum()))
 # Prescribed rows: identity times the scale, zero elsewhere (symmetric elimination).
 fixed_rows = J_local[state.fixed]
-diag_ok = comm.allreduce(bool(np.all(np.abs(fixed_rows.sum(axis=1) - state.constraint_scale)
-                                     <= 1e-12 * state.constraint_scale)), op=MPI.LAND)
+diag = state.constraint_scale / solver.residual_scale     # the residual is dimensionless
+diag_ok = comm.allreduce(bool(np.all(np.abs(fixed_rows.sum(axis=1) - diag) <= 1e-12 * diag)),
+                         op=MPI.LAND)
 if comm.rank == 0:
     print(f"jacobian_check {integrator} dim={sim.dim} ranks={comm.size} free_dofs={n_free} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok}")
