@@ -18,6 +18,9 @@ def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim):
     error = float(re.search(r"relative_error=(\S+)", proc.stdout).group(1))
     assert error < 1e-6
     assert "prescribed_rows_ok=True" in proc.stdout
+    # the matrix-free shell product equals the assembled Jacobian times a vector
+    shell = float(re.search(r"shell_product_relative_error=(\S+)", proc.stdout).group(1))
+    assert shell < 1e-8
 
 
 def test_transfers_conserve_mass_and_momentum_on_1_2_3_ranks():

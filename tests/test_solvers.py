@@ -1,0 +1,146 @@
+"""The solver stack: presets, the direct fallback, step cuts, Guilkey &
+Weiss's convergence test, and option precedence (command line > YAML >
+preset > defaults)."""
+import copy
+import re
+
+import numpy as np
+import petsc4py
+petsc4py.init([])
+import pytest
+from mpi4py import MPI
+
+from helpers import coarse_billet, read_history, run_pimpm, write_yaml
+from pimpm.config import validate
+from pimpm.simulation import Simulation
+
+
+def billet_config(preset="mumps", petsc=None, convergence=None, end_time=0.04):
+    raw = coarse_billet("quasi_static")
+    raw["time"]["end_time"] = end_time
+    raw["solver"] = {"preset": preset, "petsc": petsc or {}}
+    if convergence:
+        raw["solver"]["convergence"] = convergence
+    return validate(raw)
+
+
+def run_steps(config, steps):
+    sim = Simulation(config, MPI.COMM_WORLD)
+    infos = [sim.advance(config["time"]["dt"]) for _ in range(steps)]
+    return sim, infos
+
+
+def bulge(sim):
+    p = sim.particles
+    on_plane = p["x0"][:, 1] == p["x0"][:, 1].min()
+    i = np.flatnonzero(on_plane)[np.argmax(p["x0"][on_plane, 0])]
+    return p["x"][i, 0] - p["x0"][i, 0]
+
+
+def test_every_preset_gives_the_same_billet():
+    """4 steps (20% compression) of the 1 cm billet with every preset."""
+    results = {}
+    for preset in ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free"):
+        sim, infos = run_steps(billet_config(preset, end_time=0.04), 4)
+        results[preset] = bulge(sim), infos
+        assert all(info["newton_iterations"] <= 10 for info in infos), preset
+        sim.solver.destroy()
+    reference = results["mumps"][0]
+    assert reference > 1.0
+    for preset, (value, infos) in results.items():
+        assert abs(value - reference) <= 1e-6 * abs(reference), preset
+        if preset != "mumps":
+            assert sum(i["linear_iterations"] for i in infos) > sum(i["newton_iterations"] for i in infos)
+
+
+def test_failing_iterative_solve_falls_back_to_direct():
+    """-ksp_max_it 1 makes every CG solve fail; each Newton step is then
+    solved by MUMPS (G&W 3.3) and the step converges as with the direct solver."""
+    sim, infos = run_steps(billet_config("cg-gamg", petsc={"ksp_max_it": 1}), 2)
+    direct, direct_infos = run_steps(billet_config("mumps"), 2)
+    for info, reference in zip(infos, direct_infos):
+        assert info["linear_fallbacks"] == info["newton_iterations"] > 0
+        assert info["newton_iterations"] == reference["newton_iterations"]
+    assert abs(bulge(sim) - bulge(direct)) <= 1e-8 * abs(bulge(direct))
+    # without the fallback the same settings cannot converge
+    raw = copy.deepcopy(billet_config("cg-gamg", petsc={"ksp_max_it": 1}))
+    raw["solver"]["fallback"] = False
+    sim_nofb = Simulation(raw, MPI.COMM_WORLD)
+    with pytest.raises(Exception, match="did not converge"):
+        sim_nofb.advance(raw["time"]["dt"])
+    for s in (sim, direct, sim_nofb):
+        s.solver.destroy()
+
+
+def test_guilkey_weiss_criteria_stop_newton_where_defined():
+    eps_d, eps_e = 1e-4, 1e-8
+    config = billet_config(convergence={"test": "guilkey_weiss", "displacement_tolerance": eps_d,
+                                        "energy_tolerance": eps_e})
+    sim = Simulation(config, MPI.COMM_WORLD)
+    test = sim.solver.gw_test
+    for _ in range(3):
+        info = sim.advance(config["time"]["dt"])
+        ratios = test.ratios
+        assert test.converged and len(ratios) == info["newton_iterations"]
+        d_last, e_last = ratios[-1]
+        assert d_last < eps_d and e_last < eps_e                 # eq. 13 holds at the end ...
+        assert all(d >= eps_d or e >= eps_e for d, e in ratios[:-1])   # ... and not before
+    sim.solver.destroy()
+
+
+def test_too_large_step_is_cut_and_retried(tmp_path):
+    """A platen moving 4 cells per step fails; the step is cut, retried, and
+    the run reaches its end time with the cuts in the history."""
+    raw = coarse_billet("quasi_static", directory="out")
+    raw["time"].update(dt=0.08, end_time=0.08, max_cuts=4)
+    raw["solver"] = {"petsc": {"snes_max_it": 8}}
+    write_yaml(tmp_path / "big.yaml", raw)
+    proc = run_pimpm(None, ["big.yaml"], cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "cutting the step" in proc.stdout
+    history = read_history(tmp_path / "out" / "history.csv")
+    assert history["step_cuts"].sum() >= 1
+    assert history["time"][-1] == pytest.approx(0.08, rel=1e-12)
+    assert history["dt"].min() < 0.08
+
+
+def test_ramp_starts_small_and_grows_to_dt(tmp_path):
+    raw = coarse_billet("quasi_static", directory="out")
+    raw["time"].update(dt=0.01, end_time=0.04, dt_initial=0.0025, ramp_factor=2.0)
+    write_yaml(tmp_path / "ramp.yaml", raw)
+    proc = run_pimpm(None, ["ramp.yaml"], cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    dts = read_history(tmp_path / "out" / "history.csv")["dt"]
+    assert dts[0] == pytest.approx(0.0025) and dts[1] == pytest.approx(0.005)
+    assert dts[2] == pytest.approx(0.01)
+    assert np.sum(dts) == pytest.approx(0.04, rel=1e-12)
+
+
+def test_lagrangian_limit_cuts_steps(tmp_path):
+    """time.max_particle_displacement = 0.2 cells: the platen moves half a
+    cell per step, so steps are cut until no particle moves more than 0.2 cells."""
+    raw = coarse_billet("quasi_static", directory="out")
+    raw["time"].update(end_time=0.02, max_particle_displacement=0.2, max_cuts=6)
+    write_yaml(tmp_path / "lim.yaml", raw)
+    proc = run_pimpm(None, ["lim.yaml"], cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "time.max_particle_displacement" in proc.stdout
+    dts = read_history(tmp_path / "out" / "history.csv")["dt"]
+    assert dts.max() <= 0.01 * 0.2 / 0.5 + 1e-15
+
+
+def test_command_line_beats_yaml_and_unused_options_are_reported(tmp_path):
+    raw = coarse_billet("quasi_static", directory="out")
+    raw["time"]["end_time"] = 0.01
+    raw["solver"] = {"preset": "cg-gamg", "petsc": {"snes_linesearch_type": "basic", "snes_rtol": 1e-9}}
+    write_yaml(tmp_path / "opts.yaml", raw)
+    proc = run_pimpm(None, ["opts.yaml", "-pimpm_preset", "mumps", "-snes_linesearch_type", "l2",
+                            "-snes_view", "-options_left", "-no_such_option", "3"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = proc.stdout
+    assert "preset mumps" in out                                  # pimpm option
+    assert re.search(r"SNESLineSearch Object.*\n\s+type: l2", out)  # SNES option
+    assert "relative=1e-09" in out                                # YAML option kept (not overridden)
+    assert "type: preonly" in out and "type: lu" in out           # KSP/PC of the preset
+    assert re.search(r"Option left: name:-no_such_option value: 3", out)
+    assert "Option left: name:-snes_rtol" not in out              # program options are not 'left'
