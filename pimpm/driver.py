@@ -127,7 +127,7 @@ def progress_line(info, rigid_names):
     forces = " ".join(f"{name} F=(" + ", ".join(f"{f:.4e}" for f in info["forces"][name]) + ")"
                       for name in rigid_names)
     notes = ""
-    if info["backtracks"]:
+    if info["backtracks"] > 0:
         notes += f"  backtracks {info['backtracks']}"
     if info["linear_fallbacks"]:
         notes += f"  direct fallbacks {info['linear_fallbacks']}"

@@ -8,6 +8,8 @@ residual ``R(u) = -Q`` (G&W step 3) and its exact Jacobian
 ``K_mat + K_geo + 4/dt^2 M`` (step 2) to SNES. Solver choices come from the
 PETSc options database (command line > YAML ``solver.petsc`` > defaults).
 """
+import atexit
+import weakref
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -152,10 +154,15 @@ class ImplicitSolver:
         self.row_offset = self.X.getOwnershipRange()[0]
         self.inverted = False
         self.residual_evaluations = 0
+        self.destroyed = False
+        _LIVE_SOLVERS.add(self)
 
     def destroy(self):
         """Free the PETSc objects now (collective); Python contexts held by
         PETSc (python KSP, shell matrix) must not outlive PetscFinalize."""
+        if self.destroyed:
+            return
+        self.destroyed = True
         if self.fallback is not None and self.fallback.iterative is not None:
             self.fallback.iterative.destroy()
             self.fallback.direct.destroy()
@@ -290,20 +297,34 @@ class ImplicitSolver:
         norms, lits = self.snes.getConvergenceHistory()
         its = self.snes.getIterationNumber()
         linear = self.snes.getLinearSolveIterations()
+        # Residual evaluations beyond one per Newton iteration are line-search
+        # backtracks; with -snes_mf_operator the Krylov products evaluate the
+        # residual too, so backtracks cannot be counted this way (-1).
         mf = PETSc.Options().hasName("snes_mf_operator") or "snes_mf_operator" in self.options
-        extra = self.residual_evaluations - 1 - its - (linear if mf else 0)
+        extra = -1 if mf else self.residual_evaluations - 1 - its
         info = {
             "reason": int(reason),
             "reason_name": _reason_name(reason),
             "converged": reason > 0,
             "newton_iterations": its,
             "linear_iterations": linear,
-            "backtracks": max(0, int(extra)),
+            "backtracks": int(extra) if extra < 0 else max(0, int(extra)),
             "linear_fallbacks": (self.fallback.fallbacks - fallbacks_before) if self.fallback else 0,
             "residual_history": np.array(norms, dtype=float),
             "inverted": bool(self.grid.comm.allreduce(self.inverted)),
         }
         return self.X.getArray(readonly=True).copy(), info
+
+
+_LIVE_SOLVERS = weakref.WeakSet()
+
+
+@atexit.register
+def _destroy_live_solvers():
+    """Registered after petsc4py's own exit handler, so it runs before
+    PetscFinalize: Python contexts held by PETSc objects must go first."""
+    for solver in list(_LIVE_SOLVERS):
+        solver.destroy()
 
 
 @contextmanager

@@ -65,6 +65,11 @@ class FallbackKSP:
         self.direct.setOperators(A, P)
 
     def solve(self, ksp, b, x):
+        # the operators change every Newton iteration (and are a matrix-free
+        # MFFD operator with -snes_mf_operator): always hand the current ones on
+        A, P = ksp.getOperators()
+        self.iterative.setOperators(A, P)
+        self.direct.setOperators(A, P)
         self.iterative.solve(b, x)
         reason = self.iterative.getConvergedReason()
         its = self.iterative.getIterationNumber()
