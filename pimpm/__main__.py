@@ -84,18 +84,18 @@ def main(argv=None):
         config = load_config(args.input)
     except ConfigError as err:
         return fail(str(err))
-    if args.check:
-        from .simulation import Simulation
-        sim = Simulation(config, comm)
-        if comm.rank == 0:
-            print("\n".join(summary(sim, config)))
-            print(f"  solver    {sim.solver.describe()}")
-            print("pimpm: input is valid")
-        sim.solver.destroy()
-        return 0
+    from .simulation import Simulation, SetupError
     try:
+        if args.check:
+            sim = Simulation(config, comm)
+            lines = summary(sim, config)           # collective: every rank builds it
+            if comm.rank == 0:
+                print("\n".join(lines))
+                print("pimpm: input is valid")
+            sim.solver.destroy()
+            return 0
         return run(config, comm, overwrite=args.overwrite)
-    except UsageError as err:
+    except (UsageError, SetupError) as err:
         return fail(str(err))
 
 

@@ -1,6 +1,7 @@
 """Runs a simulation from a validated configuration: the time loop, the
 progress line, the CSV history and the HDF5/XDMF results."""
 import csv
+import sys
 import math
 import os
 import time as wallclock
@@ -58,6 +59,7 @@ def summary(sim, config):
     lines.append(f"  time      {t['integrator']}, dt {t['dt']:g} ({t['dt'] / dt_explicit:.3g} x explicit "
                  f"CFL step {dt_explicit:.3g}), end {t['end_time']:g}, {len(steps)} steps")
     lines.append(f"  output    {config['output']['directory']} every {config['output']['every']} steps")
+    lines.append(f"  solver    {sim.solver.describe()}")
     return lines
 
 
@@ -73,15 +75,18 @@ def prepare_output_directory(comm, directory, overwrite):
             problem = (f"output.directory = {directory!r} already holds results "
                        f"({', '.join(existing)}): expected a new directory "
                        f"(or pass --overwrite to replace them)")
+    if comm.rank == 0 and problem is None:
+        try:
+            os.makedirs(directory, exist_ok=True)
+            for f in OUTPUT_FILES:
+                if os.path.exists(os.path.join(directory, f)):
+                    os.remove(os.path.join(directory, f))
+        except OSError as err:
+            problem = (f"output.directory = {directory!r}: cannot be created or cleared "
+                       f"({err.strerror}): expected a writable directory path")
     problem = comm.bcast(problem)
     if problem:
         raise UsageError(problem)
-    if comm.rank == 0:
-        os.makedirs(directory, exist_ok=True)
-        for f in OUTPUT_FILES:
-            if os.path.exists(os.path.join(directory, f)):
-                os.remove(os.path.join(directory, f))
-    comm.Barrier()
 
 
 class History:
@@ -184,12 +189,16 @@ def run(config, comm, overwrite=False, echo=print):
     """Run the whole simulation. Returns 0 on success, 1 on numerical failure
     (the results up to the last good step are kept)."""
     say = echo if comm.rank == 0 else (lambda *a, **k: None)
+
+    def error(message):
+        if comm.rank == 0:
+            print(message, file=sys.stderr, flush=True)
+
     directory = config["output"]["directory"]
+    sim = Simulation(config, comm)          # bad solver options fail here, before any output
     prepare_output_directory(comm, directory, overwrite)
-    sim = Simulation(config, comm)
     for line in summary(sim, config):
         say(line)
-    say(f"  solver    {sim.solver.describe()}")
     writer = ResultWriter(comm, directory, sim.dim, sim.grid.lower, sim.grid.spacing, sim.grid.nodes)
     rigid_names = [name for _, name, _, _ in sim.rigid_bodies]
     history = History(comm, os.path.join(directory, "history.csv"), rigid_names, sim.dim)
@@ -209,8 +218,8 @@ def run(config, comm, overwrite=False, echo=print):
                 if control.failed():
                     say(f"pimpm: {failure}; cutting the step to {control.dt:.4g} and retrying")
                     continue
-                say(f"pimpm: error: {failure}, even after {control.max_cuts} step cuts. Results up "
-                    f"to step {sim.step_index} (t = {sim.time:.6g}) are in {directory}.")
+                error(f"pimpm: error: {failure}, even after {control.max_cuts} step cuts. Results up "
+                      f"to step {sim.step_index} (t = {sim.time:.6g}) are in {directory}.")
                 status = 1
                 break
             info["step_cuts"] = control.succeeded(info["newton_iterations"])

@@ -18,6 +18,11 @@ from .stages import log_stage, log_stages
 from .transfer import grid_to_particle, particle_to_grid
 
 
+class SetupError(Exception):
+    """The problem cannot be set up as given (bad solver option value, a body
+    that gets no particles): reported like bad input, before any output."""
+
+
 class StepFailed(Exception):
     """A step could not be completed (Newton diverged, a particle inverted or
     left the grid). The state of the simulation is the last good step."""
@@ -31,6 +36,33 @@ DEFAULT_SOLVER_OPTIONS = {
     "snes_atol": "1e-12",        # the residual is dimensionless (Sulsky & Kaul 3.2.2)
     "snes_max_it": "30",
 }
+
+
+def diagnose_solver_options(config, err):
+    """A one-line message for a PETSc error raised while the solver read its
+    options: names the offending ``*_type`` option when it can find it."""
+    if isinstance(err, ValueError):
+        return str(err)
+    db = PETSc.Options()
+    yaml_options = config["solver"]["petsc"]
+    candidates = dict(yaml_options)
+    candidates.update({k: db.getString(k) for k in ("ksp_type", "pc_type", "snes_type")
+                       if db.hasName(k)})
+    makers = {"ksp_type": PETSc.KSP, "pc_type": PETSc.PC, "snes_type": PETSc.SNES}
+    for name, value in candidates.items():
+        kind = next((k for k in makers if name == k or name.endswith("_" + k)), None)
+        if kind is None:
+            continue
+        obj = makers[kind]().create(comm=PETSc.COMM_SELF)
+        try:
+            obj.setType(value)
+        except PETSc.Error:
+            where = f"solver.petsc.{name}" if yaml_options.get(name) == value else f"-{name}"
+            return f"{where} = {value!r}: expected a {kind.split('_')[0].upper()} type known to PETSc"
+        finally:
+            obj.destroy()
+    return (f"PETSc rejected the solver options (error code {getattr(err, 'ierr', err)}): "
+            f"expected valid option values in solver.petsc and on the command line")
 
 
 def residual_scale(config, materials):
@@ -70,15 +102,32 @@ class Simulation:
             else:
                 self.body_material[i] = self.material_names.index(b["material"])
         self._seed()
+        self._check_every_body_has_particles()
         self.time = 0.0
         self.step_index = 0
         self.count0 = self.particles.global_count(comm)
         self.rigid_count0 = self.rigid.global_count(comm)
         self.mass0 = float(self.particles.global_sum(comm, "mass"))
         self.stages = log_stages()
-        self.solver = ImplicitSolver(self.grid, config["solver"], DEFAULT_SOLVER_OPTIONS,
-                                     residual_scale(config, self.materials), self.stages)
+        try:
+            self.solver = ImplicitSolver(self.grid, config["solver"], DEFAULT_SOLVER_OPTIONS,
+                                         residual_scale(config, self.materials), self.stages)
+        except (PETSc.Error, ValueError) as err:
+            raise SetupError(diagnose_solver_options(config, err)) from None
         self.last_grid = None
+
+    def _check_every_body_has_particles(self):
+        counts = np.zeros(len(self.config["bodies"]), dtype=np.int64)
+        for pset in (self.particles, self.rigid):
+            counts += np.bincount(pset["body"], minlength=len(counts)).astype(np.int64)
+        counts = self.comm.allreduce(counts)
+        for i, (b, n) in enumerate(zip(self.config["bodies"], counts)):
+            if n == 0:
+                raise SetupError(
+                    f"bodies[{i}].geometry = {b['geometry']}: body {b['name']!r} gets no particles "
+                    f"with particles_per_cell {b['particles_per_cell']} on cells of "
+                    f"{', '.join(f'{h:g}' for h in self.grid.spacing)}: expected a geometry that "
+                    f"contains at least one particle position (enlarge it or refine)")
 
     # ----------------------------------------------------------------- seeding
     def _seed(self):
