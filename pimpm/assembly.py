@@ -53,6 +53,15 @@ def current_gradients(F_inc, G):
     return np.matmul(G, F_inv)
 
 
+def spatial_tangent(sigma, c, dim):
+    """In-plane a_acbd = c_acbd + delta_ab sigma_cd (material + geometric
+    stiffness density, spatial form), (n, dim, dim, dim, dim)."""
+    a = c[:, :dim, :dim, :dim, :dim].copy()
+    for k in range(dim):
+        a[:, k, :, k, :] += sigma[:, :dim, :dim]
+    return a
+
+
 def element_tangents(sigma, c, F_inc, G, volume):
     """Per-particle stiffness blocks (n, nn*dim, nn*dim): material + geometric
     stiffness of G&W step 2 (row index i*dim + a, column j*dim + b)."""
@@ -60,9 +69,7 @@ def element_tangents(sigma, c, F_inc, G, volume):
     J_inc = smallmat.det(F_inc[:, :dim, :dim])
     v = volume * J_inc
     g = current_gradients(F_inc, G)
-    a = c[:, :dim, :dim, :dim, :dim].copy()
-    for k in range(dim):                                     # + delta_ab sigma_cd
-        a[:, k, :, k, :] += sigma[:, :dim, :dim]
+    a = spatial_tangent(sigma, c, dim)
     # T_(i,abd) = g_ic a_acbd, then K_(iab),j = T_(iab),d g_jd (batched matmuls)
     a_c_first = np.transpose(a, (0, 2, 1, 3, 4)).reshape(n, dim, dim**3)
     T = np.matmul(g, a_c_first).reshape(n, nn * dim * dim, dim)

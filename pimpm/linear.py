@@ -117,10 +117,7 @@ class TangentShell:
         self.scale = scale
         self.g = assembly.current_gradients(F_inc, state.G)
         self.v = state.volume_n * smallmat.det(F_inc[:, :dim, :dim])
-        a = c[:, :dim, :dim, :dim, :dim].copy()
-        for k in range(dim):
-            a[:, k, :, k, :] += sigma[:, :dim, :dim]
-        self.a = a
+        self.a = assembly.spatial_tangent(sigma, c, dim)
 
     def mult(self, mat, x, y):
         st, grid = self.state, self.grid
