@@ -92,7 +92,8 @@ def main(argv=None):
             if comm.rank == 0:
                 print("\n".join(lines))
                 print("pimpm: input is valid")
-            sim.solver.destroy()
+            if sim.solver is not None:
+                sim.solver.destroy()
             return 0
         return run(config, comm, overwrite=args.overwrite)
     except (UsageError, SetupError) as err:

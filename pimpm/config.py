@@ -39,7 +39,8 @@ BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: ("plane_strain",), 3: ("3d",)}
 MATERIAL_MODELS = ("neo_hookean", "neo_hookean_compressible")
 GEOMETRY_TYPES = ("box", "ball")
-INTEGRATORS = ("newmark", "quasi_static")
+INTEGRATORS = ("newmark", "quasi_static", "explicit")
+STRESS_UPDATES = ("usl", "usf")
 AXES = ("x", "y", "z")
 DEFAULT_PARTICLES_PER_CELL = 2
 DEFAULT_OUTPUT_DIRECTORY = "pimpm_output"
@@ -53,7 +54,8 @@ BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "constrain")
 GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius")}
 TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
-             "max_cuts", "easy_newton_iterations", "max_particle_displacement")
+             "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
+             "stress_update")
 SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc")
 CONVERGENCE_KEYS = ("test", "displacement_tolerance", "energy_tolerance")
 SOLVER_PRESETS = ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free")
@@ -459,17 +461,30 @@ def _validate_time(value, path, dim):
     sec = _Section(value, path, TIME_KEYS)
     integ = sec.optional("integrator")
     integ = "newmark" if integ is _MISSING else _enum(integ, sec.sub("integrator"), INTEGRATORS)
-    dt = _positive(sec.required("dt", "a positive number"), sec.sub("dt"))
+    explicit = integ == "explicit"
+    if explicit and sec.optional("dt") is _MISSING:
+        dt = None                     # automatic: cfl * h / (wave speed + |v|) every step
+    else:
+        dt = _positive(sec.required("dt", "a positive number"), sec.sub("dt"))
     end_raw = sec.required("end_time", "a positive number >= time.dt")
     end_time = _positive(end_raw, sec.sub("end_time"))
-    if end_time < dt:
+    if dt is not None and end_time < dt:
         _fail(sec.sub("end_time"), end_raw, f"a number >= time.dt = {_fmt(dt)}")
+    cfl = sec.optional("cfl")
+    cfl = 0.5 if cfl is _MISSING else _float(cfl, sec.sub("cfl"), "a number in (0, 1]")
+    if not 0.0 < cfl <= 1.0:
+        _fail(sec.sub("cfl"), cfl, "a number in (0, 1]")
+    update = sec.optional("stress_update")
+    update = "usl" if update is _MISSING else _enum(update, sec.sub("stress_update"), STRESS_UPDATES)
+    for key in ("cfl", "stress_update"):
+        if sec.has(key) and not explicit:
+            _fail(sec.sub(key), sec.data[key], "to be given only with time.integrator: explicit")
     gravity = sec.optional("gravity")
     gravity = [0.0] * dim if gravity is _MISSING else \
         _float_vector(gravity, sec.sub("gravity"), dim)
     dt_initial = sec.optional("dt_initial")
     dt_initial = dt if dt_initial is _MISSING else _positive(dt_initial, sec.sub("dt_initial"))
-    if dt_initial > dt:
+    if dt is not None and dt_initial > dt:
         _fail(sec.sub("dt_initial"), dt_initial, f"a number <= time.dt = {_fmt(dt)}")
     ramp = sec.optional("ramp_factor")
     ramp = 1.2 if ramp is _MISSING else _float(ramp, sec.sub("ramp_factor"), "a number >= 1")
@@ -483,7 +498,8 @@ def _validate_time(value, path, dim):
     limit = None if limit is _MISSING else _positive(limit, sec.sub("max_particle_displacement"))
     return {"integrator": integ, "dt": dt, "end_time": end_time, "gravity": gravity,
             "dt_initial": dt_initial, "ramp_factor": ramp, "max_cuts": cuts,
-            "easy_newton_iterations": easy, "max_particle_displacement": limit}
+            "easy_newton_iterations": easy, "max_particle_displacement": limit,
+            "cfl": cfl, "stress_update": update}
 
 
 def _petsc_value(value, path):

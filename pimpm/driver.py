@@ -43,7 +43,7 @@ def summary(sim, config):
         counts += np.bincount(pset["body"], minlength=len(counts)).astype(np.int64)
     counts = comm.allreduce(counts)
     t = config["time"]
-    steps = step_times(t["end_time"], t["dt"])
+    steps = step_times(t["end_time"], t["dt"]) if t["dt"] is not None else []
     cells = "x".join(str(int(c)) for c in sim.grid.cells)
     lines = [
         f"pimpm: {config.get('title') or 'untitled'}",
@@ -56,10 +56,18 @@ def summary(sim, config):
         kind = "rigid" if b.get("rigid") else f"material {b['material']}"
         lines.append(f"  body      {b['name']}: {int(n)} particles ({kind})")
     dt_explicit = explicit_time_step(sim)
-    lines.append(f"  time      {t['integrator']}, dt {t['dt']:g} ({t['dt'] / dt_explicit:.3g} x explicit "
-                 f"CFL step {dt_explicit:.3g}), end {t['end_time']:g}, {len(steps)} steps")
+    if t["dt"] is None:
+        lines.append(f"  time      explicit, automatic dt = {t['cfl']:g} x CFL step "
+                     f"(now {t['cfl'] * dt_explicit:.3g}), end {t['end_time']:g}")
+    else:
+        lines.append(f"  time      {t['integrator']}, dt {t['dt']:g} ({t['dt'] / dt_explicit:.3g} x "
+                     f"explicit CFL step {dt_explicit:.3g}), end {t['end_time']:g}, "
+                     f"{len(steps)} steps")
     lines.append(f"  output    {config['output']['directory']} every {config['output']['every']} steps")
-    lines.append(f"  solver    {sim.solver.describe()}")
+    if sim.solver is not None:
+        lines.append(f"  solver    {sim.solver.describe()}")
+    else:
+        lines.append(f"  solver    explicit ({t['stress_update'].upper()}), no linear solves")
     return lines
 
 
@@ -153,6 +161,7 @@ class TimeStepControl:
     to land on ``end_time``."""
 
     def __init__(self, time_config):
+        self.fixed = time_config["dt"]
         self.target = time_config["dt"]
         self.dt = time_config["dt_initial"]
         self.ramp = time_config["ramp_factor"]
@@ -160,6 +169,13 @@ class TimeStepControl:
         self.easy = time_config["easy_newton_iterations"]
         self.end = time_config["end_time"]
         self.cuts = 0               # consecutive cuts of the current step
+
+    def set_explicit_step(self, sim):
+        """Explicit steps follow the CFL limit (or the fixed time.dt below it)."""
+        stable = sim.stable_time_step()
+        self.target = stable if self.fixed is None else min(self.fixed, stable / sim.config["time"]["cfl"])
+        if self.cuts == 0:
+            self.dt = self.target
 
     def done(self, time):
         return time >= self.end * (1.0 - 1e-12)
@@ -211,6 +227,8 @@ def run(config, comm, overwrite=False, echo=print):
         write_results(sim, writer)
         written = sim.step_index
         while not control.done(sim.time):
+            if sim.explicit:
+                control.set_explicit_step(sim)
             dt = control.next_dt(sim.time)
             try:
                 info = sim.advance(dt)
@@ -233,7 +251,8 @@ def run(config, comm, overwrite=False, echo=print):
     finally:
         writer.close()
         history.close()
-        sim.solver.destroy()
+        if sim.solver is not None:
+            sim.solver.destroy()
     if status == 0:
         say(f"pimpm: finished {sim.step_index} steps in {wallclock.perf_counter() - start:.1f} s; "
             f"results in {directory}/ (particles.xdmf, grid.xdmf, history.csv)")

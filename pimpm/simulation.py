@@ -15,7 +15,9 @@ from .materials import make_material, von_mises
 from .particles import ParticleSet, migrate, seed_body
 from .shape import make_shape
 from .stages import log_stage, log_stages
-from .transfer import grid_to_particle, particle_to_grid
+from . import smallmat
+from .assembly import deformation_increment, internal_force_pairs
+from .transfer import gradient_at_particles, grid_to_particle, particle_to_grid, scatter
 
 
 class SetupError(Exception):
@@ -109,6 +111,11 @@ class Simulation:
         self.rigid_count0 = self.rigid.global_count(comm)
         self.mass0 = float(self.particles.global_sum(comm, "mass"))
         self.stages = log_stages()
+        self.explicit = self.integrator == "explicit"
+        self.solver = None
+        if self.explicit:
+            self._check_explicit_time_step()
+            return
         try:
             self.solver = ImplicitSolver(self.grid, config["solver"], DEFAULT_SOLVER_OPTIONS,
                                          residual_scale(config, self.materials), self.stages)
@@ -234,8 +241,10 @@ class Simulation:
         return state.dt * state.velocity + 0.5 * state.dt**2 * state.acceleration
 
     def advance(self, dt):
-        """One implicit step (G&W section 3.3). Returns a dict of step data.
-        Raises StepFailed, leaving the particles as they were."""
+        """One implicit step (G&W section 3.3), or one explicit step. Returns
+        a dict of step data. Raises StepFailed, leaving the particles as they were."""
+        if self.explicit:
+            return self.advance_explicit(dt)
         t0 = wallclock.perf_counter()
         comm, grid, p = self.comm, self.grid, self.particles
         with log_stage(self.stages["P2G"]):
@@ -324,6 +333,119 @@ class Simulation:
         p["stress"] = sigma
         self.rigid["x"] = new_rigid_x
         return forces, v_new, a_new
+
+    # ----------------------------------------------------------------- explicit MPM
+    def stable_time_step(self):
+        """CFL limit dt = cfl * h / max_p (c + |v_p|) (MPM intro), with c the
+        dilatational wave speed of each particle's material. Collective."""
+        p = self.particles
+        h = float(np.min(self.grid.spacing))
+        speed = 0.0
+        for material, index in self.material_groups():
+            if len(index):
+                v = np.sqrt(np.max(np.sum(p["v"][index] ** 2, axis=1)))
+                speed = max(speed, material.wave_speed() + v)
+        speed = self.comm.allreduce(speed, op=MPI.MAX)
+        return self.config["time"]["cfl"] * h / speed
+
+    def _check_explicit_time_step(self):
+        dt = self.config["time"]["dt"]
+        if dt is not None:
+            limit = self.stable_time_step() / self.config["time"]["cfl"]
+            if dt > limit:
+                raise SetupError(f"time.dt = {dt!r}: expected at most the explicit stability limit "
+                                 f"h / (c + |v|) = {limit:.6g} (omit time.dt for an automatic "
+                                 f"step of time.cfl = {self.config['time']['cfl']} times it)")
+
+    def material_groups(self):
+        """[(material, particle index)] for the deformable particles."""
+        p = self.particles
+        groups = []
+        for mi, material in enumerate(self.materials):
+            bodies_of = [b for b, m in self.body_material.items() if m == mi]
+            groups.append((material, np.flatnonzero(np.isin(p["body"], bodies_of))))
+        return groups
+
+    def update_stress_explicit(self, node_index, G, v_local, dt):
+        """F(t+dt) = (1 + dt grad v) F(t) (MPM intro eq. 13-14) and the
+        stress of every particle."""
+        p = self.particles
+        L = gradient_at_particles(node_index, G, v_local)
+        F_inc = deformation_increment(dt * L)
+        F = np.matmul(F_inc, p["F"])
+        if len(F) and not np.all(smallmat.det(F_inc[:, :self.dim, :self.dim]) > 0):
+            return False
+        sigma = np.zeros((len(F), 3, 3))
+        for material, index in self.material_groups():
+            if len(index):
+                sigma[index] = material.stress(F[index])
+        p["F"], p["stress"] = F, sigma
+        return True
+
+    def _explicit_stress(self, node_index, G, v_local, dt, saved):
+        ok = self.update_stress_explicit(node_index, G, v_local, dt)
+        if self.comm.allreduce(int(not ok)):
+            self.particles["F"], self.particles["stress"] = saved
+            raise StepFailed(f"a particle inverted at step {self.step_index + 1} "
+                             f"(t = {self.time + dt:.6g}, dt = {dt:.6g})")
+
+    def advance_explicit(self, dt):
+        """One explicit MPM step (MPM intro eq. 1-10), update-stress-last
+        (default) or update-stress-first (time.stress_update: usf)."""
+        t0 = wallclock.perf_counter()
+        comm, grid, p, dim = self.comm, self.grid, self.particles, self.dim
+        with log_stage(self.stages["P2G"]):
+            node_index, S, G, _ = self.footprint()
+            mass, velocity, _, fext = self.nodal_state(node_index, S)              # eq. 2-4
+            cons = bc.build_constraints(grid, self.shape, self.rigid, self.rigid_bodies,
+                                        self.boundary, mass, dt)
+            velocity = np.where(cons.fixed, cons.value / dt, velocity)
+            usf = self.config["time"]["stress_update"] == "usf"
+            saved = (p["F"], p["stress"])
+            if usf:                                   # stress from the velocity at t
+                self._explicit_stress(node_index, G, grid.owned_to_local(velocity), dt, saved)
+            volume = p["volume0"] * smallmat.det(p["F"][:, :dim, :dim]) if len(p["F"]) else np.zeros(0)
+            pairs = internal_force_pairs(p["stress"][:, :dim, :dim], G, volume)   # eq. 6
+            fint = grid.sum_to_owned(scatter(node_index, pairs, grid.n_local_nodes))
+        with log_stage(self.stages["G2P"]):
+            has_mass = mass > 0.0
+            acceleration = np.where(has_mass, (fext - fint) / np.where(has_mass, mass, 1.0), 0.0)  # eq. 1
+            v_new = velocity + acceleration * dt                                     # eq. 7
+            v_new = np.where(cons.fixed, cons.value / dt, v_new)
+            acceleration = np.where(cons.fixed, 0.0, acceleration)
+            forces = {}
+            for name, mask in cons.body_dofs.items():
+                reaction = mass * (v_new - velocity) / dt - fext + fint
+                local = np.where(mask, reaction, 0.0).reshape(-1, dim).sum(axis=0)
+                forces[name] = comm.allreduce(local, op=MPI.SUM)
+            a_local = grid.owned_to_local((v_new - velocity) / dt)
+            v_local = grid.owned_to_local(v_new)
+            new_v = p["v"] + dt * grid_to_particle(node_index, S, a_local)             # eq. 9
+            new_x = p["x"] + dt * grid_to_particle(node_index, S, v_local)             # eq. 10
+            new_rigid_x = self.rigid["x"] + self.rigid["v"] * dt
+            outside = int(np.sum(~grid.inside(new_x))) + int(np.sum(~grid.inside(new_rigid_x)))
+            if comm.allreduce(outside) > 0:
+                p["F"], p["stress"] = saved
+                raise StepFailed(f"particles would leave the grid at step {self.step_index + 1} "
+                                 f"(t = {self.time + dt:.6g}); enlarge grid.lower/upper")
+            if not usf:                               # stress from the new grid velocity
+                self._explicit_stress(node_index, G, v_local, dt, saved)
+            p["v"], p["x"] = new_v, new_x
+            p["a"] = np.zeros_like(new_v)
+            self.rigid["x"] = new_rigid_x
+        with log_stage(self.stages["Migration"]):
+            self.migrate()
+        self.time += dt
+        self.step_index += 1
+        self.last_grid = {"mass": mass, "velocity": v_new, "acceleration": acceleration,
+                          "displacement_increment": v_new * dt}
+        return {
+            "step": self.step_index, "time": self.time, "dt": dt,
+            "newton_iterations": 0, "linear_iterations": 0, "backtracks": 0, "linear_fallbacks": 0,
+            "residual_initial": 0.0, "residual_final": 0.0, "residual_history": np.zeros(0),
+            "forces": forces, "kinetic_energy": self.kinetic_energy(),
+            "strain_energy": self.strain_energy(), "wall_time": wallclock.perf_counter() - t0,
+        }
 
     # ----------------------------------------------------------------- migration
     def migrate(self):

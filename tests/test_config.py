@@ -92,7 +92,7 @@ def test_base_config_normalizes_with_defaults():
     assert cfg["time"] == {"integrator": "quasi_static", "dt": 0.005, "end_time": 0.2,
                            "gravity": [0.0, 0.0], "dt_initial": 0.005, "ramp_factor": 1.2,
                            "max_cuts": 4, "easy_newton_iterations": 6,
-                           "max_particle_displacement": None}
+                           "max_particle_displacement": None, "cfl": 0.5, "stress_update": "usl"}
     assert cfg["solver"] == {"preset": "mumps", "fallback": True,
                              "convergence": {"test": "petsc", "displacement_tolerance": 1e-6,
                                              "energy_tolerance": 1e-12},
@@ -378,8 +378,8 @@ BAD = [
     ("zero radius",
      _set("bodies.0.geometry", {"type": "ball", "center": [10.0, 10.0], "radius": 0}),
      ["bodies[0].geometry.radius = 0", "expected a positive number"]),
-    ("unknown integrator", _set("time.integrator", "explicit"),
-     ["time.integrator = 'explicit'", "expected one of newmark, quasi_static"]),
+    ("unknown integrator", _set("time.integrator", "central_difference"),
+     ["time.integrator = 'central_difference'", "expected one of newmark, quasi_static, explicit"]),
     ("unknown boundary type", _set("grid.boundary.xmin", "clamped"),
      ["grid.boundary.xmin = 'clamped'", "expected one of free, fixed, roller, symmetry"]),
     ("unknown model", _set("materials.rubber.model", "mooney_rivlin"),
@@ -431,6 +431,13 @@ BAD = [
     ("ramp below one", _set("time.ramp_factor", 0.5), ["time.ramp_factor = 0.5", "a number >= 1"]),
     ("dt_initial above dt", _set("time.dt_initial", 1.0), ["time.dt_initial = 1.0", "<= time.dt"]),
     ("negative max_cuts", _set("time.max_cuts", -1), ["time.max_cuts = -1", "integer >= 0"]),
+    ("cfl above one", _set("time", {"integrator": "explicit", "end_time": 1.0, "cfl": 1.5}),
+     ["time.cfl = 1.5", "(0, 1]"]),
+    ("cfl with an implicit integrator", _set("time.cfl", 0.3),
+     ["time.cfl = 0.3", "only with time.integrator: explicit"]),
+    ("unknown stress update", _set("time", {"integrator": "explicit", "end_time": 1.0,
+                                            "stress_update": "mixed"}),
+     ["time.stress_update = 'mixed'", "usl", "usf"]),
     ("zero particle displacement limit", _set("time.max_particle_displacement", 0),
      ["time.max_particle_displacement = 0", "positive"]),
 ]
