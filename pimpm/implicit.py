@@ -45,10 +45,27 @@ class StepState:
     constraint_scale: float       # diagonal used for prescribed rows
     extra: dict = field(default_factory=dict)
 
+    scheme: str = "newmark"       # newmark | backward_euler | quasi_static
+
+    @property
+    def mass_coefficient(self):
+        """d(inertia)/du per unit mass: 4/dt^2 (trapezoidal), 1/dt^2 (backward Euler)."""
+        return {"newmark": 4.0, "backward_euler": 1.0}.get(self.scheme, 0.0) / self.dt**2
+
+    def grid_kinematics(self, u):
+        """v_g(t+dt) and a_g(t+dt) for the incremental displacement u:
+        trapezoidal rule (G&W eq. 14-16), backward Euler (Sulsky & Kaul's
+        theta = 1: v = u / dt, a = (v - v(t)) / dt), or quasi-static (a = 0)."""
+        dt, v, a = self.dt, self.velocity, self.acceleration
+        if self.scheme == "newmark":
+            return 2.0 / dt * u - v, 4.0 / dt**2 * u - 4.0 / dt * v - a
+        if self.scheme == "backward_euler":
+            return u / dt, (u / dt - v) / dt
+        return u / dt, np.zeros_like(u)
+
     def inertia(self, u):
-        """M a(t+dt) with Newmark/trapezoidal a = 4/dt^2 u - 4/dt v - a (G&W eq. 16)."""
-        dt = self.dt
-        return self.mass * (4.0 / dt**2 * u - 4.0 / dt * self.velocity - self.acceleration)
+        """M a(t+dt) as a function of u (G&W eq. 16 for the trapezoidal rule)."""
+        return self.mass * self.grid_kinematics(u)[1]
 
 
 def particle_kinematics(state, u_local):
@@ -274,7 +291,7 @@ class ImplicitSolver:
         with self._stage("Assembly"):
             P.assemble()
             if st.dynamic:
-                self.diag.getArray()[:] = 4.0 / st.dt**2 * st.mass
+                self.diag.getArray()[:] = st.mass_coefficient * st.mass
                 P.setDiagonal(self.diag, addv=PETSc.InsertMode.ADD_VALUES)
             rows = (np.nonzero(st.fixed)[0] + self.row_offset).astype(PETSc.IntType)
             P.zeroRowsColumns(rows, diag=st.constraint_scale)

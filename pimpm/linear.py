@@ -135,7 +135,7 @@ class TangentShell:
             local = np.zeros((grid.n_local_nodes, dim))
         out = grid.sum_to_owned(local)
         if st.dynamic:
-            out += 4.0 / st.dt**2 * st.mass * xs_free
+            out += st.mass_coefficient * st.mass * xs_free
         out[fixed] = st.constraint_scale * xs[fixed]
         y.getArray()[:] = out / self.scale
 
@@ -151,7 +151,7 @@ class TangentShell:
             local = np.zeros((grid.n_local_nodes, dim))
         out = grid.sum_to_owned(local)
         if st.dynamic:
-            out += 4.0 / st.dt**2 * st.mass
+            out += st.mass_coefficient * st.mass
         out[st.fixed] = st.constraint_scale
         d.getArray()[:] = out / self.scale
 

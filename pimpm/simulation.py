@@ -92,7 +92,7 @@ class Simulation:
         self.material_names = list(config["materials"])
         self.materials = [make_material(config["materials"][k]) for k in self.material_names]
         self.integrator = config["time"]["integrator"]
-        self.dynamic = self.integrator == "newmark"
+        self.dynamic = self.integrator in ("newmark", "backward_euler")
         self.gravity = np.asarray(config["time"].get("gravity", [0.0] * dim), dtype=float)
         self.body_names = [b["name"] for b in config["bodies"]]
         self.rigid_bodies = []          # (index, name, velocity, axes)
@@ -209,7 +209,8 @@ class Simulation:
         h = float(np.min(self.grid.spacing))
         k = max(m.bulk_modulus + 4.0 / 3.0 * m.shear_modulus for m in self.materials) * h ** (self.dim - 2)
         if self.dynamic:
-            k += 4.0 / dt**2 * max(m.density for m in self.materials) * self.grid.cell_volume
+            coefficient = 4.0 if self.integrator == "newmark" else 1.0
+            k += coefficient / dt**2 * max(m.density for m in self.materials) * self.grid.cell_volume
         return k
 
     def prepare_step(self, dt):
@@ -225,7 +226,7 @@ class Simulation:
             index = np.flatnonzero(np.isin(p["body"], bodies_of))
             groups.append((material, index))
         state = StepState(
-            dt=dt, dynamic=self.dynamic, node_index=node_index, S=S, G=G,
+            dt=dt, dynamic=self.dynamic, scheme=self.integrator, node_index=node_index, S=S, G=G,
             F_n=p["F"], volume_n=p["volume0"] * np.linalg.det(p["F"]),
             material_groups=groups, cell_starts=starts, cell_nodes=node_index[starts],
             mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
@@ -238,6 +239,8 @@ class Simulation:
         iterations without changing the converged answer: dt v_g + dt^2/2 a_g
         with the grid velocity and acceleration interpolated from the
         particles (in quasi-statics v_p is the last increment over dt)."""
+        if self.integrator == "backward_euler":
+            return state.dt * state.velocity
         return state.dt * state.velocity + 0.5 * state.dt**2 * state.acceleration
 
     def advance(self, dt):
@@ -299,12 +302,7 @@ class Simulation:
         # converged state, a_g(t+dt) from eq. 16, interpolate to particles
         F_inc, F, _ = particle_kinematics(state, u_local)
         sigma, _ = constitutive_update(state, F, tangent=False)
-        if self.dynamic:
-            a_new = 4.0 / dt**2 * u - 4.0 / dt * state.velocity - state.acceleration
-            v_new = 2.0 / dt * u - state.velocity
-        else:
-            a_new = np.zeros_like(u)
-            v_new = u / dt
+        v_new, a_new = state.grid_kinematics(u)
         a_local = grid.owned_to_local(a_new)
         u_p = grid_to_particle(state.node_index, state.S, u_local)
         a_p = grid_to_particle(state.node_index, state.S, a_local)
@@ -323,8 +321,11 @@ class Simulation:
                                  f"{self.step_index + 1} (t = {self.time + dt:.6g}, dt = {dt:.6g}); "
                                  f"time.max_particle_displacement is {limit:g}")
         p["x"] = new_x
-        if self.dynamic:
+        if self.integrator == "newmark":                # G&W step 7
             p["v"] = p["v"] + 0.5 * dt * (p["a"] + a_p)
+            p["a"] = a_p
+        elif self.integrator == "backward_euler":       # Sulsky & Kaul: v += dt a (FLIP)
+            p["v"] = p["v"] + dt * a_p
             p["a"] = a_p
         else:
             p["v"] = u_p / dt

@@ -379,7 +379,7 @@ BAD = [
      _set("bodies.0.geometry", {"type": "ball", "center": [10.0, 10.0], "radius": 0}),
      ["bodies[0].geometry.radius = 0", "expected a positive number"]),
     ("unknown integrator", _set("time.integrator", "central_difference"),
-     ["time.integrator = 'central_difference'", "expected one of newmark, quasi_static, explicit"]),
+     ["time.integrator = 'central_difference'", "expected one of newmark, quasi_static, explicit, backward_euler"]),
     ("unknown boundary type", _set("grid.boundary.xmin", "clamped"),
      ["grid.boundary.xmin = 'clamped'", "expected one of free, fixed, roller, symmetry"]),
     ("unknown model", _set("materials.rubber.model", "mooney_rivlin"),
