@@ -40,7 +40,7 @@ KINEMATICS = {2: ("plane_strain",), 3: ("3d",)}
 MATERIAL_MODELS = ("neo_hookean", "neo_hookean_compressible")
 GEOMETRY_TYPES = ("box", "ball")
 INTEGRATORS = ("newmark", "quasi_static", "explicit", "backward_euler")
-STRESS_UPDATES = ("usl", "usf")
+STRESS_UPDATES = ("musl", "usl", "usf")
 AXES = ("x", "y", "z")
 DEFAULT_PARTICLES_PER_CELL = 2
 DEFAULT_OUTPUT_DIRECTORY = "pimpm_output"
@@ -475,7 +475,7 @@ def _validate_time(value, path, dim):
     if not 0.0 < cfl <= 1.0:
         _fail(sec.sub("cfl"), cfl, "a number in (0, 1]")
     update = sec.optional("stress_update")
-    update = "usl" if update is _MISSING else _enum(update, sec.sub("stress_update"), STRESS_UPDATES)
+    update = "musl" if update is _MISSING else _enum(update, sec.sub("stress_update"), STRESS_UPDATES)
     for key in ("cfl", "stress_update"):
         if sec.has(key) and not explicit:
             _fail(sec.sub(key), sec.data[key], "to be given only with time.integrator: explicit")

@@ -146,6 +146,10 @@ def progress_line(info, rigid_names):
         notes += f"  direct fallbacks {info['linear_fallbacks']}"
     if info["step_cuts"]:
         notes += f"  dt cuts {info['step_cuts']}"
+    if info.get("explicit"):
+        return (f"step {info['step']:5d}  t {info['time']:.5e}  dt {info['dt']:.3e}  "
+                f"kinetic {info['kinetic_energy']:.4e}  strain {info['strain_energy']:.4e}  {forces}  "
+                f"wall {info['wall_time']:.3f} s{notes}")
     return (f"step {info['step']:5d}  t {info['time']:.5e}  dt {info['dt']:.3e}  "
             f"newton {info['newton_iterations']:2d}  linear {info['linear_iterations']:4d}  "
             f"|R| {info['residual_initial']:.3e} -> {info['residual_final']:.3e}  {forces}  "

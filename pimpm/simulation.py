@@ -113,6 +113,7 @@ class Simulation:
         self.stages = log_stages()
         self.explicit = self.integrator == "explicit"
         self.solver = None
+        self.last_grid = None
         if self.explicit:
             self._check_explicit_time_step()
             return
@@ -121,7 +122,6 @@ class Simulation:
                                          residual_scale(config, self.materials), self.stages)
         except (PETSc.Error, ValueError) as err:
             raise SetupError(diagnose_solver_options(config, err)) from None
-        self.last_grid = None
 
     def _check_every_body_has_particles(self):
         counts = np.zeros(len(self.config["bodies"]), dtype=np.int64)
@@ -391,8 +391,9 @@ class Simulation:
                              f"(t = {self.time + dt:.6g}, dt = {dt:.6g})")
 
     def advance_explicit(self, dt):
-        """One explicit MPM step (MPM intro eq. 1-10), update-stress-last
-        (default) or update-stress-first (time.stress_update: usf)."""
+        """One explicit MPM step (MPM intro eq. 1-10): update-stress-last
+        (``usl``, the intro's eq. 5 with the new grid velocity), its modified
+        form (``musl``, the default) or update-stress-first (``usf``)."""
         t0 = wallclock.perf_counter()
         comm, grid, p, dim = self.comm, self.grid, self.particles, self.dim
         with log_stage(self.stages["P2G"]):
@@ -401,9 +402,9 @@ class Simulation:
             cons = bc.build_constraints(grid, self.shape, self.rigid, self.rigid_bodies,
                                         self.boundary, mass, dt)
             velocity = np.where(cons.fixed, cons.value / dt, velocity)
-            usf = self.config["time"]["stress_update"] == "usf"
+            update = self.config["time"]["stress_update"]
             saved = (p["F"], p["stress"])
-            if usf:                                   # stress from the velocity at t
+            if update == "usf":                                   # stress from the velocity at t
                 self._explicit_stress(node_index, G, grid.owned_to_local(velocity), dt, saved)
             volume = p["volume0"] * smallmat.det(p["F"][:, :dim, :dim]) if len(p["F"]) else np.zeros(0)
             pairs = internal_force_pairs(p["stress"][:, :dim, :dim], G, volume)   # eq. 6
@@ -429,8 +430,18 @@ class Simulation:
                 p["F"], p["stress"] = saved
                 raise StepFailed(f"particles would leave the grid at step {self.step_index + 1} "
                                  f"(t = {self.time + dt:.6g}); enlarge grid.lower/upper")
-            if not usf:                               # stress from the new grid velocity
+            if update == "usl":                       # stress from the new grid velocity
                 self._explicit_stress(node_index, G, v_local, dt, saved)
+            elif update == "musl":
+                # modified USL: the velocity gradient comes from the updated
+                # particle momenta mapped back to the grid, which keeps nodes
+                # with tiny mass (body edges) from driving huge strain rates
+                m = p["mass"]
+                momentum = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * new_v,
+                                                              grid.n_local_nodes))
+                remapped = np.where(has_mass, momentum / np.where(has_mass, mass, 1.0), 0.0)
+                remapped = np.where(cons.fixed, cons.value / dt, remapped)
+                self._explicit_stress(node_index, G, grid.owned_to_local(remapped), dt, saved)
             p["v"], p["x"] = new_v, new_x
             p["a"] = np.zeros_like(new_v)
             self.rigid["x"] = new_rigid_x
@@ -441,7 +452,7 @@ class Simulation:
         self.last_grid = {"mass": mass, "velocity": v_new, "acceleration": acceleration,
                           "displacement_increment": v_new * dt}
         return {
-            "step": self.step_index, "time": self.time, "dt": dt,
+            "step": self.step_index, "time": self.time, "dt": dt, "explicit": True,
             "newton_iterations": 0, "linear_iterations": 0, "backtracks": 0, "linear_fallbacks": 0,
             "residual_initial": 0.0, "residual_final": 0.0, "residual_history": np.zeros(0),
             "forces": forces, "kinetic_energy": self.kinetic_energy(),

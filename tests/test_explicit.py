@@ -53,7 +53,7 @@ def vibrate(config, periods, dt=None):
     return sim, period, np.diff(crossings), np.array(energy)
 
 
-@pytest.mark.parametrize("stress_update", ["usl", "usf"])
+@pytest.mark.parametrize("stress_update", ["musl", "usl", "usf"])
 def test_explicit_bar_vibrates_at_the_analytic_frequency(stress_update):
     sim, period, measured, energy = vibrate(bar_config("explicit", stress_update=stress_update), 3)
     assert len(measured) >= 2
