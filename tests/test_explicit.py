@@ -89,3 +89,25 @@ def test_backward_euler_dissipates_where_newmark_conserves():
     assert energy[-1] < 0.5 * energy[0]
     assert np.all(np.diff(energy) < 1e-3 * energy[0])     # monotone decay (up to round-off)
     sim.solver.destroy()
+
+
+def test_explicit_billet_same_on_1_and_2_ranks(tmp_path):
+    from helpers import MPIEXEC, coarse_billet, last_particles, run_pimpm, write_yaml
+    if MPIEXEC is None:
+        pytest.skip("mpiexec not found")
+    raw = coarse_billet("explicit", directory="out")
+    raw["time"] = {"integrator": "explicit", "end_time": 0.01}
+    results = []
+    for n in (1, 2):
+        work = tmp_path / f"r{n}"
+        work.mkdir()
+        write_yaml(work / "b.yaml", raw)
+        proc = run_pimpm(n, ["b.yaml"], cwd=work, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        results.append(last_particles(work / "out" / "results.h5"))
+    (p1, t1), (p2, t2) = results
+    assert t1 == pytest.approx(0.01, rel=1e-12) and t2 == pytest.approx(0.01, rel=1e-12)
+    assert np.array_equal(p1["id"], p2["id"])
+    assert np.max(np.abs(p1["displacement"])) > 0.1
+    np.testing.assert_allclose(p2["position"], p1["position"], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(p2["stress"], p1["stress"], rtol=0, atol=1e-8 * np.abs(p1["stress"]).max())
