@@ -35,13 +35,13 @@ def face_constraints(grid, boundary):
     return np.unique(np.concatenate(dofs)) if dofs else np.zeros(0, dtype=np.int64)
 
 
-def rigid_body_touch(grid, shape, positions, constrained_axes):
+def rigid_body_touch(grid, shape, positions, half_size, constrained_axes):
     """Owned dof mask of the nodes a rigid body's particles touch, for its
     constrained components (collective: sums touches over ranks)."""
     dim = grid.dim
     counts = np.zeros((grid.n_local_nodes, dim))
     if len(positions):
-        nodes, S, _ = shape.evaluate(positions, grid.lower, grid.spacing, grid.cells)
+        nodes, S, _ = shape.evaluate(positions, grid.lower, grid.spacing, grid.cells, half_size)
         touch = (S > 0.0).astype(float)
         local = grid.local_node_index(nodes)
         node_counts = scatter(local, touch, grid.n_local_nodes)
@@ -50,11 +50,15 @@ def rigid_body_touch(grid, shape, positions, constrained_axes):
     return grid.sum_to_owned(counts) > 0.0
 
 
-def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass, dt):
+def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass, dt,
+                      mass_floor=0.0):
     """Prescribed dofs and values for one step.
 
     rigid_bodies: list of (body index, name, velocity, constrained axes).
     mass: owned nodal mass per dof (zero on nodes no deformable particle touches).
+    mass_floor: nodes with no more mass than this count as massless (a node
+    at the very edge of a GIMP particle domain gets ~1e-30 of a particle's
+    mass and no stiffness to speak of).
     Order of precedence: grid faces > rigid bodies > massless nodes.
     """
     n = len(mass)
@@ -63,7 +67,8 @@ def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass
     body_dofs = {}
     for index, name, velocity, axes in rigid_bodies:
         mine = rigid_particles["body"] == index
-        touched = rigid_body_touch(grid, shape, rigid_particles["x"][mine], axes)
+        touched = rigid_body_touch(grid, shape, rigid_particles["x"][mine],
+                                   rigid_particles["half_size"][mine], axes)
         u = np.tile(np.asarray(velocity, dtype=float) * dt, n // grid.dim)
         value[touched] = u[touched]
         fixed |= touched
@@ -75,6 +80,6 @@ def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass
     value[faces] = 0.0
     for mask in body_dofs.values():
         mask[faces] = False
-    massless = (mass <= 0.0) & ~fixed
+    massless = (mass <= mass_floor) & ~fixed
     fixed |= massless
     return Constraints(fixed=fixed, value=value, body_dofs=body_dofs)

@@ -34,8 +34,9 @@ class StepState:
     F_n: np.ndarray               # (n, 3, 3) deformation gradient at t
     volume_n: np.ndarray          # (n,) volume at t
     material_groups: list         # [(material, particle index array)]
-    cell_starts: np.ndarray       # first particle of each occupied cell (particles sorted by cell)
-    cell_nodes: np.ndarray        # (n_cells_occupied, nn) ghosted-local nodes of each cell
+    group_order: np.ndarray       # particles sorted by the node set they touch
+    group_starts: np.ndarray      # first particle of each group in that order
+    group_nodes: np.ndarray       # (n_groups, nn) ghosted-local nodes of each group
     mass: np.ndarray              # owned dofs: lumped nodal mass (repeated per component)
     velocity: np.ndarray          # owned dofs: v_g(t) (eq. 3)
     acceleration: np.ndarray      # owned dofs: a_g(t)
@@ -284,8 +285,8 @@ class ImplicitSolver:
                 sigma, c = constitutive_update(st, F, tangent=True)
             with self._stage("Assembly"):
                 Ke = assembly.element_tangents(sigma, c, F_inc, st.G, st.volume_n)
-                Ke = assembly.sum_by_group(Ke, st.cell_starts)
-                nodes = st.cell_nodes.astype(PETSc.IntType)
+                Ke = assembly.sum_by_group(Ke[st.group_order], st.group_starts)
+                nodes = st.group_nodes.astype(PETSc.IntType)
                 P.setValuesBlockedLocalRCV(nodes, nodes, Ke.reshape(len(nodes), -1),
                                            addv=PETSc.InsertMode.ADD_VALUES)
         with self._stage("Assembly"):

@@ -24,7 +24,7 @@ class LinearShape:
                                 dtype=np.int64)
         self.nodes_per_particle = len(self.offsets)
 
-    def evaluate(self, x, lower, spacing, cells):
+    def evaluate(self, x, lower, spacing, cells, half_size=None):
         """Return ``(nodes, S, G)`` for positions ``x`` (n, dim):
 
         nodes (n, nn, dim) global node multi-indices,
@@ -48,6 +48,69 @@ class LinearShape:
 
 
 def make_shape(name, dim):
-    if name == "linear":
-        return LinearShape(dim)
-    raise ValueError(f"unknown shape functions {name!r}")
+    shapes = {"linear": LinearShape, "gimp": GIMPShape}
+    if name not in shapes:
+        raise ValueError(f"unknown shape functions {name!r}")
+    return shapes[name](dim)
+
+
+def _gimp_1d(r, l):
+    """uGIMP weight and slope (per unit r) in cell units: the linear hat
+    averaged over a particle of half-length l (<= 1/2) centred at r from the
+    node (Bardenhagen & Kober 2004)."""
+    a = np.abs(r)
+    s = np.sign(r)
+    w = np.zeros_like(r)
+    dw = np.zeros_like(r)
+    inner = a < l
+    middle = (a >= l) & (a < 1.0 - l)
+    outer = (a >= 1.0 - l) & (a < 1.0 + l)
+    w[inner] = 1.0 - (r[inner] ** 2 + l[inner] ** 2) / (2.0 * l[inner])
+    dw[inner] = -r[inner] / l[inner]
+    w[middle] = 1.0 - a[middle]
+    dw[middle] = -s[middle]
+    q = 1.0 + l[outer] - a[outer]
+    w[outer] = q ** 2 / (4.0 * l[outer])
+    dw[outer] = -s[outer] * q / (2.0 * l[outer])
+    return w, dw
+
+
+class GIMPShape:
+    """GIMP: the tent functions averaged over each particle's domain (initial
+    half-length h / (2 ppc) per axis, stretched by the diagonal of F by the
+    caller), smooth across cell boundaries, which
+    removes most of the cell-crossing noise of linear shape functions. Each
+    particle touches 3 nodes per axis (the nearest node and its neighbours),
+    so the DMDA needs a stencil width of 2. Partition of unity and linear
+    completeness hold while particle domains stay inside the grid."""
+
+    name = "gimp"
+    stencil_width = 2
+
+    def __init__(self, dim):
+        self.dim = dim
+        self.offsets = np.array([o[::-1] for o in itertools.product((0, 1, 2), repeat=dim)],
+                                dtype=np.int64)
+        self.nodes_per_particle = len(self.offsets)
+
+    def evaluate(self, x, lower, spacing, cells, half_size=None):
+        xi = (x - lower) / spacing
+        if half_size is None:
+            raise ValueError("GIMP needs the particle half sizes")
+        l = half_size / spacing                                   # (n, dim) in cell units
+        base = np.floor(xi + 0.5).astype(np.int64) - 1            # nearest node - 1
+        nodes = base[:, None, :] + self.offsets[None, :, :]       # (n, nn, dim)
+        r = xi[:, None, :] - nodes
+        lb = np.broadcast_to(l[:, None, :], r.shape)
+        w, dw = _gimp_1d(r.ravel(), lb.ravel())
+        w, dw = w.reshape(r.shape), dw.reshape(r.shape)
+        outside = (nodes < 0) | (nodes > cells)
+        w[outside] = 0.0
+        dw[outside] = 0.0
+        nodes = np.clip(nodes, 0, cells)
+        S = np.prod(w, axis=2)
+        G = np.empty(w.shape)
+        for d in range(self.dim):  # loop over dimensions only
+            others = np.prod(np.delete(w, d, axis=2), axis=2)
+            G[:, :, d] = dw[:, :, d] / spacing[d] * others
+        return nodes, S, G

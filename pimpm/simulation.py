@@ -110,6 +110,8 @@ class Simulation:
         self.count0 = self.particles.global_count(comm)
         self.rigid_count0 = self.rigid.global_count(comm)
         self.mass0 = float(self.particles.global_sum(comm, "mass"))
+        largest = float(np.max(self.particles["mass"])) if len(self.particles) else 0.0
+        self.mass_floor = 1e-10 * comm.allreduce(largest, op=MPI.MAX)
         self.stages = log_stages()
         self.explicit = self.integrator == "explicit"
         self.solver = None
@@ -139,8 +141,8 @@ class Simulation:
     # ----------------------------------------------------------------- seeding
     def _seed(self):
         dim = self.dim
-        mat = {k: [] for k in ("x", "volume0", "id", "body", "v", "density")}
-        rig = {k: [] for k in ("x", "id", "body", "v")}
+        mat = {k: [] for k in ("x", "volume0", "id", "body", "v", "density", "half_size")}
+        rig = {k: [] for k in ("x", "id", "body", "v", "half_size")}
         id_offset = 0
         for i, b in enumerate(self.config["bodies"]):
             ppc = b["particles_per_cell"]
@@ -151,6 +153,9 @@ class Simulation:
             target["id"].append(pid)
             target["body"].append(np.full(len(x), i, dtype=np.int64))
             target["v"].append(np.tile(np.asarray(b.get("velocity", [0.0] * dim), float), (len(x), 1)))
+            # particle domain half size (used by GIMP): h / (2 ppc) per axis
+            half = self.grid.spacing / (2.0 * np.asarray(ppc, dtype=float))
+            target["half_size"].append(np.tile(half, (len(x), 1)))
             if not b.get("rigid", False):
                 target["volume0"].append(vol)
                 target["density"].append(np.full(len(x), self.materials[self.body_material[i]].density))
@@ -164,12 +169,14 @@ class Simulation:
             "F": np.broadcast_to(np.eye(3), (n, 3, 3)).copy(),
             "stress": np.zeros((n, 3, 3)),
             "volume0": volume0, "mass": volume0 * cat(mat["density"], (0,)),
+            "half_size": cat(mat["half_size"], (0, dim)),
             "body": cat(mat["body"], (0,), np.int64), "id": cat(mat["id"], (0,), np.int64),
         })
         xr = cat(rig["x"], (0, dim))
         self.rigid = ParticleSet({
             "x": xr, "x0": xr.copy(), "v": cat(rig["v"], (0, dim)),
             "body": cat(rig["body"], (0,), np.int64), "id": cat(rig["id"], (0,), np.int64),
+            "half_size": cat(rig["half_size"], (0, dim)),
         })
         self._sort_by_cell(self.particles)
         self._sort_by_cell(self.rigid)
@@ -181,13 +188,31 @@ class Simulation:
 
     # ----------------------------------------------------------------- one step
     def footprint(self):
-        """Shape functions of the material particles on the reset grid."""
+        """Shape functions of the material particles on the reset grid, and
+        the grouping of particles that touch the same set of nodes (one
+        element matrix per group): ``order`` sorts particles by group and
+        ``starts`` marks the first of each group in that order."""
         p = self.particles
-        nodes, S, G = self.shape.evaluate(p["x"], self.grid.lower, self.grid.spacing, self.grid.cells)
+        nodes, S, G = self.shape.evaluate(p["x"], self.grid.lower, self.grid.spacing,
+                                          self.grid.cells, self.particle_half_sizes())
         node_index = self.grid.local_node_index(nodes)
-        cell = self.grid.local_cell_index(self.grid.cell_of(p["x"]))
-        starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]]) if len(cell) else np.zeros(0, int)
-        return node_index, S, G, starts
+        # the first and last nodes identify the node set (also where GIMP's
+        # stencil is clipped at the grid boundary)
+        key = node_index[:, 0] * self.grid.n_local_nodes + node_index[:, -1]
+        order = np.argsort(key, kind="stable")
+        sorted_key = key[order]
+        starts = (np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
+                  if len(key) else np.zeros(0, int))
+        return node_index, S, G, (order, starts)
+
+    def particle_half_sizes(self):
+        """Current particle-domain half sizes for GIMP: the initial h/(2 ppc)
+        stretched by the diagonal of F (convected-domain GIMP restricted to
+        axis-aligned domains, so that the domains keep tiling the body under
+        homogeneous deformation), at most half a cell."""
+        p = self.particles
+        stretch = np.abs(np.diagonal(p["F"], axis1=1, axis2=2)[:, :self.dim])
+        return np.minimum(p["half_size"] * stretch, 0.5 * self.grid.spacing)
 
     def nodal_state(self, node_index, S):
         """G&W step 1 (eq. 2-4): lumped mass, v_g(t), a_g(t) and Fext_g on
@@ -199,7 +224,7 @@ class Simulation:
         momentum = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * p["v"], nloc))
         mass_acc = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * p["a"], nloc))
         fext = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * self.gravity, nloc))
-        has_mass = mass > 0.0
+        has_mass = mass > self.mass_floor
         safe = np.where(has_mass, mass, 1.0)
         velocity = np.where(has_mass, momentum / safe, 0.0)
         acceleration = np.where(has_mass, mass_acc / safe, 0.0)
@@ -216,10 +241,10 @@ class Simulation:
     def prepare_step(self, dt):
         """Steps 1-2: P2G and the Newton state on the reset grid."""
         p = self.particles
-        node_index, S, G, starts = self.footprint()
+        node_index, S, G, (order, starts) = self.footprint()
         mass, velocity, acceleration, fext = self.nodal_state(node_index, S)
         cons = bc.build_constraints(self.grid, self.shape, self.rigid, self.rigid_bodies,
-                                    self.boundary, mass, dt)
+                                    self.boundary, mass, dt, self.mass_floor)
         groups = []
         for mi, material in enumerate(self.materials):
             bodies_of = [b for b, m in self.body_material.items() if m == mi]
@@ -228,7 +253,8 @@ class Simulation:
         state = StepState(
             dt=dt, dynamic=self.dynamic, scheme=self.integrator, node_index=node_index, S=S, G=G,
             F_n=p["F"], volume_n=p["volume0"] * np.linalg.det(p["F"]),
-            material_groups=groups, cell_starts=starts, cell_nodes=node_index[starts],
+            material_groups=groups, group_order=order, group_starts=starts,
+            group_nodes=node_index[order][starts],
             mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
             fixed=cons.fixed, fixed_value=cons.value, constraint_scale=self.constraint_scale(dt))
         return state, cons
@@ -400,7 +426,7 @@ class Simulation:
             node_index, S, G, _ = self.footprint()
             mass, velocity, _, fext = self.nodal_state(node_index, S)              # eq. 2-4
             cons = bc.build_constraints(grid, self.shape, self.rigid, self.rigid_bodies,
-                                        self.boundary, mass, dt)
+                                        self.boundary, mass, dt, self.mass_floor)
             velocity = np.where(cons.fixed, cons.value / dt, velocity)
             update = self.config["time"]["stress_update"]
             saved = (p["F"], p["stress"])
@@ -410,7 +436,7 @@ class Simulation:
             pairs = internal_force_pairs(p["stress"][:, :dim, :dim], G, volume)   # eq. 6
             fint = grid.sum_to_owned(scatter(node_index, pairs, grid.n_local_nodes))
         with log_stage(self.stages["G2P"]):
-            has_mass = mass > 0.0
+            has_mass = mass > self.mass_floor
             acceleration = np.where(has_mass, (fext - fint) / np.where(has_mass, mass, 1.0), 0.0)  # eq. 1
             v_new = velocity + acceleration * dt                                     # eq. 7
             v_new = np.where(cons.fixed, cons.value / dt, v_new)

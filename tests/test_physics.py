@@ -50,9 +50,13 @@ def run(sim, steps, dt):
     return info
 
 
-def patch_config(model):
+def patch_config(model, shape="linear"):
+    # with GIMP the platen's particle domains touch nodes within half a
+    # particle spacing, so it starts half a cell higher to keep touching only
+    # the top row of the block
+    platen_bottom = 2.0 if shape == "linear" else 2.25
     return validate({
-        "grid": {"lower": [0.0, 0.0], "upper": [3.0, 3.0], "cells": [6, 6],
+        "grid": {"lower": [0.0, 0.0], "upper": [3.0, 3.0], "cells": [6, 6], "shape_functions": shape,
                  "boundary": {"xmin": "roller", "ymin": "roller"}},
         "materials": {"m": {"model": model, "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
                             "density": 10.0}},
@@ -62,7 +66,8 @@ def patch_config(model):
             # frictionless platen: imposes only the normal (y) velocity
             {"name": "platen", "rigid": True, "particles_per_cell": 2, "constrain": ["y"],
              "velocity": [0.0, -2.5],
-             "geometry": {"type": "box", "lower": [0.0, 2.0], "upper": [3.0, 2.5]}},
+             "geometry": {"type": "box", "lower": [0.0, platen_bottom],
+                          "upper": [3.0, platen_bottom + 0.5]}},
         ],
         "time": {"integrator": "quasi_static", "dt": 0.01, "end_time": 0.04},
     })
@@ -73,8 +78,12 @@ def test_patch_test_uniform_compression_has_analytic_stress():
     compressed 5% in 4 steps: every particle carries the analytic stress of
     homogeneous plane-strain compression, and the platen force equals
     sigma_yy times the current width."""
-    for model in ("neo_hookean", "neo_hookean_compressible"):
-        config = patch_config(model)
+    for model, shape in (("neo_hookean", "linear"), ("neo_hookean_compressible", "linear")):
+        # (GIMP integrates the stress over the particle domains exactly, so once
+        # the block's top surface lies between node rows while the platen
+        # prescribes the row above it, the discrete solution is not
+        # homogeneous: GIMP is checked on the vibrating bar instead)
+        config = patch_config(model, shape)
         sim = Simulation(config, MPI.COMM_WORLD)
         info = run(sim, 4, 0.01)
         stretch = (1.0 - 0.01 * 2.5 / 2.0) ** 4
@@ -83,7 +92,7 @@ def test_patch_test_uniform_compression_has_analytic_stress():
         sigma = sim.particles["stress"]
         scale = abs(exact[1, 1])
         assert scale > 1e5
-        assert np.max(np.abs(sigma - exact)) < 1e-8 * scale, model
+        assert np.max(np.abs(sigma - exact)) < 1e-8 * scale, (model, shape)
         F = sim.particles["F"]
         assert np.allclose(F, np.diag([lam_x, stretch, 1.0]), rtol=0, atol=1e-10)
         force = info["forces"]["platen"]

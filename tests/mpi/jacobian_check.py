@@ -19,6 +19,7 @@ from pimpm.simulation import Simulation
 
 integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
+shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
 comm = MPI.COMM_WORLD
 raw = {
     "grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8],
@@ -49,6 +50,7 @@ if three_d:
          "geometry": {"type": "box", "lower": [0, 0, 1.5], "upper": [2.0, 2.0, 2.0]}},
     ]
     raw["time"]["gravity"] = [0.0, 0.0, -981.0]
+raw["grid"]["shape_functions"] = shape
 sim = Simulation(validate(raw), comm)
 sim.advance(0.01)
 sim.advance(0.01)
@@ -117,7 +119,7 @@ shell_solver.destroy()
 
 if comm.rank == 0:
     print(f"shell_product_relative_error={shell_error:.3e}")
-    print(f"jacobian_check {integrator} dim={sim.dim} ranks={comm.size} free_dofs={n_free} "
+    print(f"jacobian_check {integrator} dim={sim.dim} shape={shape} ranks={comm.size} free_dofs={n_free} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok}")
 ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8
 sys.exit(0 if ok else 1)

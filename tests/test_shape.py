@@ -1,0 +1,58 @@
+"""Shape functions: partition of unity, linear completeness and gradients
+consistent with the weights (finite differences), in 2D and 3D."""
+import numpy as np
+import pytest
+
+from pimpm.shape import make_shape
+
+
+@pytest.mark.parametrize("name", ["linear", "gimp"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_partition_of_unity_and_gradient_consistency(name, dim):
+    rng = np.random.default_rng(3)
+    shape = make_shape(name, dim)
+    cells = np.array([7, 5, 4][:dim])
+    spacing = np.array([0.5, 0.25, 1.0][:dim])
+    lower = np.array([-1.0, 2.0, 0.5][:dim])
+    half = spacing / (2 * np.array([2, 3, 1][:dim]))
+    n = 300
+    # particle domains inside the grid (GIMP's requirement)
+    x = lower + half + rng.random((n, dim)) * (cells * spacing - 2 * half)
+    nodes, S, G = shape.evaluate(x, lower, spacing, cells, np.tile(half, (n, 1)))
+    xi = lower + nodes * spacing                                     # node coordinates
+    assert np.all(S >= -1e-15)
+    np.testing.assert_allclose(S.sum(axis=1), 1.0, atol=1e-13)      # partition of unity
+    np.testing.assert_allclose(np.einsum("pi,pid->pd", S, xi), x, atol=1e-12)   # sum S x_i = x
+    np.testing.assert_allclose(G.sum(axis=1), 0.0, atol=1e-11)      # sum of gradients vanishes
+    np.testing.assert_allclose(np.einsum("pia,pib->pab", xi, G),     # sum x_i (x) G_i = I
+                               np.broadcast_to(np.eye(dim), (n, dim, dim)), atol=1e-11)
+    # gradients are the derivatives of the weights (central differences)
+    eps = 1e-7
+    for d in range(dim):
+        dx = np.zeros(dim)
+        dx[d] = eps
+        _, Sp, _ = shape.evaluate(x + dx, lower, spacing, cells, np.tile(half, (n, 1)))
+        _, Sm, _ = shape.evaluate(x - dx, lower, spacing, cells, np.tile(half, (n, 1)))
+        # the node sets can differ where a particle crosses a half-cell line; compare
+        # only where they agree (almost everywhere)
+        np_, _, _ = shape.evaluate(x + dx, lower, spacing, cells, np.tile(half, (n, 1)))
+        nm, _, _ = shape.evaluate(x - dx, lower, spacing, cells, np.tile(half, (n, 1)))
+        same = np.all((np_ == nodes) & (nm == nodes), axis=(1, 2))
+        assert same.sum() > 0.95 * n
+        fd = (Sp - Sm) / (2 * eps)
+        np.testing.assert_allclose(G[same, :, d], fd[same], atol=1e-6 * np.abs(G).max())
+
+
+def test_gimp_is_smooth_across_cell_boundaries():
+    """Linear weights have a kink where a particle crosses a node line; GIMP
+    weights and gradients are continuous there (less cell-crossing noise)."""
+    shape = make_shape("gimp", 2)
+    lower, spacing, cells = np.zeros(2), np.ones(2), np.array([4, 4])
+    half = np.full((2, 2), 0.25)
+    x = np.array([[2.0 - 1e-9, 1.5], [2.0 + 1e-9, 1.5]])
+    nodes, S, G = shape.evaluate(x, lower, spacing, cells, half)
+    weights = [{tuple(n): (s, g) for n, s, g in zip(nodes[k], S[k], G[k])} for k in range(2)]
+    for node in set(weights[0]) | set(weights[1]):
+        s0, g0 = weights[0].get(node, (0.0, np.zeros(2)))
+        s1, g1 = weights[1].get(node, (0.0, np.zeros(2)))
+        assert abs(s0 - s1) < 1e-8 and np.allclose(g0, g1, atol=1e-8)
