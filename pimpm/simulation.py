@@ -442,8 +442,8 @@ class Simulation:
             v_new = np.where(cons.fixed, cons.value / dt, v_new)
             acceleration = np.where(cons.fixed, 0.0, acceleration)
             forces = {}
+            reaction = mass * (v_new - velocity) / dt - fext + fint     # force the bodies apply
             for name, mask in cons.body_dofs.items():
-                reaction = mass * (v_new - velocity) / dt - fext + fint
                 local = np.where(mask, reaction, 0.0).reshape(-1, dim).sum(axis=0)
                 forces[name] = comm.allreduce(local, op=MPI.SUM)
             a_local = grid.owned_to_local((v_new - velocity) / dt)
