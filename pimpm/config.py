@@ -37,7 +37,7 @@ SHAPE_FUNCTIONS = ("linear", "gimp")
 BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
 BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: ("plane_strain",), 3: ("3d",)}
-MATERIAL_MODELS = ("neo_hookean", "neo_hookean_compressible")
+MATERIAL_MODELS = ("neo_hookean", "neo_hookean_compressible", "linear_elastic", "j2_small_strain")
 GEOMETRY_TYPES = ("box", "ball")
 INTEGRATORS = ("newmark", "quasi_static", "explicit", "backward_euler")
 STRESS_UPDATES = ("musl", "usl", "usf")
@@ -49,7 +49,9 @@ BBOX_RELATIVE_TOLERANCE = 1e-12
 TOP_KEYS = ("title", "grid", "kinematics", "materials", "bodies", "time", "solver", "output")
 GRID_KEYS = ("lower", "upper", "cells", "shape_functions", "boundary")
 MATERIAL_KEYS = ("model", "density", "shear_modulus", "bulk_modulus",
-                 "youngs_modulus", "poisson_ratio")
+                 "youngs_modulus", "poisson_ratio", "yield_stress", "hardening_modulus",
+                 "softening_strain", "softening_modulus")
+PLASTICITY_KEYS = ("yield_stress", "hardening_modulus", "softening_strain", "softening_modulus")
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "constrain")
 GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius")}
@@ -312,6 +314,18 @@ def _validate_material(value, path):
     else:
         have = ", ".join(given) if given else "no elastic constants"
         raise ConfigError(f"{path} has {have}: expected {pairs}", path=path)
+    if model == "j2_small_strain":
+        out["yield_stress"] = _positive(sec.required("yield_stress", "a positive number"),
+                                        sec.sub("yield_stress"))
+        for key, default in (("hardening_modulus", 0.0), ("softening_modulus", 0.0)):
+            v = sec.optional(key)
+            out[key] = default if v is _MISSING else _float(v, sec.sub(key), "a number")
+        v = sec.optional("softening_strain")
+        out["softening_strain"] = None if v is _MISSING else _positive(v, sec.sub("softening_strain"))
+    else:
+        for key in PLASTICITY_KEYS:
+            if sec.has(key):
+                _fail(sec.sub(key), sec.data[key], "plasticity parameters only with model j2_small_strain")
     return out
 
 

@@ -47,6 +47,7 @@ class StepState:
     extra: dict = field(default_factory=dict)
 
     scheme: str = "newmark"       # newmark | backward_euler | quasi_static
+    history: dict = field(default_factory=dict)   # material history at t (per particle)
 
     @property
     def mass_coefficient(self):
@@ -82,15 +83,22 @@ def particle_kinematics(state, u_local):
 
 def constitutive_update(state, F, tangent):
     """Cauchy stress (n, 3, 3) and, if ``tangent``, the spatial elasticity
-    tensor (n, 3, 3, 3, 3) for every particle, material by material."""
+    tensor (n, 3, 3, 3, 3) for every particle, material by material. History
+    variables start from the values committed at t (``state.history``); the
+    updated ones are left in ``state.extra["history"]`` for the commit."""
     n = len(F)
     sigma = np.zeros((n, 3, 3))
     c = np.zeros((n, 3, 3, 3, 3)) if tangent else None
+    new_history = {k: v.copy() for k, v in state.history.items()}
     for material, index in state.material_groups:
+        old = {k: state.history[k][index] for k in material.history}
+        s, cc, new = material.update(F[index], old, tangent)
+        sigma[index] = s
         if tangent:
-            sigma[index], c[index] = material.stress_and_tangent(F[index])
-        else:
-            sigma[index] = material.stress(F[index])
+            c[index] = cc
+        for k, v in new.items():
+            new_history[k][index] = v
+    state.extra["history"] = new_history
     return sigma, c
 
 

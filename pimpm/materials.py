@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import small_strain
+
 __all__ = [
     "uncoupled_neo_hookean",
     "uncoupled_neo_hookean_energy",
@@ -214,6 +216,8 @@ class Material:
     and ``_energy``."""
 
     name = "material"
+    #: history variables carried by particles: name -> per-particle shape
+    history = {}
 
     def __init__(self, shear_modulus, bulk_modulus, density):
         self.shear_modulus = float(shear_modulus)
@@ -238,9 +242,16 @@ class Material:
         """Cauchy stress (n, 3, 3) and spatial elasticity tensor (n, 3, 3, 3, 3)."""
         return self._kernel(F, tangent=True)
 
-    def strain_energy(self, F):
+    def strain_energy(self, F, history=None):
         """Strain energy per unit reference volume, shape (n,)."""
         return self._energy(F)
+
+    def update(self, F, history, tangent=True):
+        """Stress, tangent (or None) and the history after this deformation,
+        from the history committed at the start of the step (elastic models
+        have none)."""
+        sigma, c = self._kernel(F, tangent=tangent)
+        return sigma, c, {}
 
     def wave_speed(self):
         """Small-strain dilatational wave speed sqrt((kappa + 4/3 mu) / rho)."""
@@ -284,9 +295,75 @@ class CompressibleNeoHookean(Material):
         return compressible_neo_hookean_energy(F, self.lame_lambda, self.shear_modulus)
 
 
+class SmallStrainElastic(Material):
+    """Linear elasticity in the small strain eps = sym(F) - 1 (Sulsky & Kaul's
+    bars); not objective: for small rotations only."""
+
+    name = "linear_elastic"
+
+    def _elastic_tangent(self, n):
+        D = self.bulk_modulus * small_strain.II + 2.0 * self.shear_modulus * small_strain.IDEV
+        return np.broadcast_to(D, (n, 3, 3, 3, 3))
+
+    def _kernel(self, F, tangent):
+        F = _as_F(F)
+        eps = small_strain.small_strain(F)
+        tr = np.trace(eps, axis1=-2, axis2=-1)[..., None, None]
+        sigma = self.bulk_modulus * tr * _I + 2.0 * self.shear_modulus * (eps - tr / 3.0 * _I)
+        if not tangent:
+            return sigma, None
+        return sigma, small_strain.spatial_tangent(sigma, self._elastic_tangent(len(F)), F)
+
+    def _energy(self, F):
+        eps = small_strain.small_strain(_as_F(F))
+        sigma, _ = self._kernel(F, tangent=False)
+        return 0.5 * np.sum(sigma * eps, axis=(-2, -1))
+
+
+class J2SmallStrain(SmallStrainElastic):
+    """Small-strain von Mises plasticity with the bilinear hardening /
+    softening of Sulsky & Kaul eq. 2.1.19 and radial return; history:
+    plastic strain, equivalent plastic strain, plastic work density."""
+
+    name = "j2_small_strain"
+    history = {"plastic_strain": (3, 3), "eq_plastic_strain": (), "plastic_work": ()}
+
+    def __init__(self, shear_modulus, bulk_modulus, density, yield_stress, hardening_modulus=0.0,
+                 softening_strain=np.inf, softening_modulus=0.0):
+        super().__init__(shear_modulus, bulk_modulus, density)
+        self.yield_stress = float(yield_stress)
+        self.hardening_modulus = float(hardening_modulus)
+        self.softening_strain = float(softening_strain)
+        self.softening_modulus = float(softening_modulus)
+
+    def update(self, F, history, tangent=True):
+        F = _as_F(F)
+        sigma, D, eps_p, alpha, work = small_strain.j2_return(
+            small_strain.small_strain(F), history["plastic_strain"], history["eq_plastic_strain"],
+            self.shear_modulus, self.bulk_modulus, self.yield_stress, self.hardening_modulus,
+            self.softening_strain, self.softening_modulus)
+        c = small_strain.spatial_tangent(sigma, D, F) if tangent else None
+        return sigma, c, {"plastic_strain": eps_p, "eq_plastic_strain": alpha,
+                          "plastic_work": history["plastic_work"] + work}
+
+    def _kernel(self, F, tangent):      # elastic response (no history given)
+        return super()._kernel(F, tangent)
+
+    def strain_energy(self, F, history=None):
+        """Stored (elastic) energy 1/2 sigma : (eps - eps_p)."""
+        F = _as_F(F)
+        eps_p = history["plastic_strain"] if history else 0.0
+        eps_e = small_strain.small_strain(F) - eps_p
+        tr = np.trace(eps_e, axis1=-2, axis2=-1)[..., None, None]
+        sigma = self.bulk_modulus * tr * _I + 2.0 * self.shear_modulus * (eps_e - tr / 3.0 * _I)
+        return 0.5 * np.sum(sigma * eps_e, axis=(-2, -1))
+
+
 MODELS = {
     "neo_hookean": UncoupledNeoHookean,
     "neo_hookean_compressible": CompressibleNeoHookean,
+    "linear_elastic": SmallStrainElastic,
+    "j2_small_strain": J2SmallStrain,
 }
 
 
@@ -321,4 +398,8 @@ def make_material(spec):
     if "density" not in spec:
         raise ValueError("material spec needs a density")
     mu, kappa = elastic_moduli(spec)
+    if model == "j2_small_strain":
+        extra = {k: spec[k] for k in ("yield_stress", "hardening_modulus", "softening_strain",
+                                      "softening_modulus") if spec.get(k) is not None}
+        return MODELS[model](mu, kappa, spec["density"], **extra)
     return MODELS[model](mu, kappa, spec["density"])

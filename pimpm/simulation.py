@@ -178,8 +178,20 @@ class Simulation:
             "body": cat(rig["body"], (0,), np.int64), "id": cat(rig["id"], (0,), np.int64),
             "half_size": cat(rig["half_size"], (0, dim)),
         })
+        for name, shape in self.history_fields().items():
+            self.particles["h_" + name] = np.zeros((n,) + tuple(shape))
         self._sort_by_cell(self.particles)
         self._sort_by_cell(self.rigid)
+
+    def history_fields(self):
+        """History variables of all materials in use: name -> per-particle shape."""
+        fields = {}
+        for material in self.materials:
+            fields.update(material.history)
+        return fields
+
+    def particle_history(self, index=slice(None)):
+        return {name: self.particles["h_" + name][index] for name in self.history_fields()}
 
     def _sort_by_cell(self, pset):
         if len(pset):
@@ -256,6 +268,7 @@ class Simulation:
             material_groups=groups, group_order=order, group_starts=starts,
             group_nodes=node_index[order][starts],
             mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
+            history=self.particle_history(),
             fixed=cons.fixed, fixed_value=cons.value, constraint_scale=self.constraint_scale(dt))
         return state, cons
 
@@ -358,6 +371,8 @@ class Simulation:
             p["a"] = np.zeros_like(u_p)
         p["F"] = F
         p["stress"] = sigma
+        for name, values in state.extra["history"].items():     # commit the history
+            p["h_" + name] = values
         self.rigid["x"] = new_rigid_x
         return forces, v_new, a_new
 
@@ -403,16 +418,23 @@ class Simulation:
         if len(F) and not np.all(smallmat.det(F_inc[:, :self.dim, :self.dim]) > 0):
             return False
         sigma = np.zeros((len(F), 3, 3))
+        history = self.particle_history()
+        new_history = {k: v.copy() for k, v in history.items()}
         for material, index in self.material_groups():
             if len(index):
-                sigma[index] = material.stress(F[index])
+                old = {k: history[k][index] for k in material.history}
+                sigma[index], _, new = material.update(F[index], old, tangent=False)
+                for k, v in new.items():
+                    new_history[k][index] = v
         p["F"], p["stress"] = F, sigma
+        for name, values in new_history.items():
+            p["h_" + name] = values
         return True
 
     def _explicit_stress(self, node_index, G, v_local, dt, saved):
         ok = self.update_stress_explicit(node_index, G, v_local, dt)
         if self.comm.allreduce(int(not ok)):
-            self.particles["F"], self.particles["stress"] = saved
+            self.particles.fields.update(saved)
             raise StepFailed(f"a particle inverted at step {self.step_index + 1} "
                              f"(t = {self.time + dt:.6g}, dt = {dt:.6g})")
 
@@ -429,7 +451,7 @@ class Simulation:
                                         self.boundary, mass, dt, self.mass_floor)
             velocity = np.where(cons.fixed, cons.value / dt, velocity)
             update = self.config["time"]["stress_update"]
-            saved = (p["F"], p["stress"])
+            saved = {k: p[k] for k in ["F", "stress"] + ["h_" + n for n in self.history_fields()]}
             if update == "usf":                                   # stress from the velocity at t
                 self._explicit_stress(node_index, G, grid.owned_to_local(velocity), dt, saved)
             volume = p["volume0"] * smallmat.det(p["F"][:, :dim, :dim]) if len(p["F"]) else np.zeros(0)
@@ -453,7 +475,7 @@ class Simulation:
             new_rigid_x = self.rigid["x"] + self.rigid["v"] * dt
             outside = int(np.sum(~grid.inside(new_x))) + int(np.sum(~grid.inside(new_rigid_x)))
             if comm.allreduce(outside) > 0:
-                p["F"], p["stress"] = saved
+                p.fields.update(saved)
                 raise StepFailed(f"particles would leave the grid at step {self.step_index + 1} "
                                  f"(t = {self.time + dt:.6g}); enlarge grid.lower/upper")
             if update == "usl":                       # stress from the new grid velocity
@@ -513,7 +535,9 @@ class Simulation:
             bodies_of = [b for b, m in self.body_material.items() if m == mi]
             index = np.isin(p["body"], bodies_of)
             if np.any(index):
-                total += float(np.sum(p["volume0"][index] * material.strain_energy(p["F"][index])))
+                history = {k: p["h_" + k][index] for k in material.history}
+                total += float(np.sum(p["volume0"][index]
+                                      * material.strain_energy(p["F"][index], history)))
         return float(self.comm.allreduce(total))
 
     def particle_output(self):
@@ -530,6 +554,8 @@ class Simulation:
             "J": np.concatenate([J, np.ones(nr)]),
             "body": np.concatenate([p["body"], r["body"]]),
             "id": np.concatenate([p["id"], r["id"]]),
+            **{name: np.concatenate([p["h_" + name], np.zeros((nr,) + p["h_" + name].shape[1:])])
+               for name in ("eq_plastic_strain", "plastic_work") if "h_" + name in p},
         }
 
     def grid_output(self):

@@ -20,6 +20,7 @@ from pimpm.simulation import Simulation
 integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
+plastic = len(sys.argv) > 4 and sys.argv[4] == "j2"
 comm = MPI.COMM_WORLD
 raw = {
     "grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8],
@@ -51,10 +52,16 @@ if three_d:
     ]
     raw["time"]["gravity"] = [0.0, 0.0, -981.0]
 raw["grid"]["shape_functions"] = shape
+if plastic:   # small-strain J2 with a low yield stress: particles yield in the first steps
+    raw["materials"]["m"] = {"model": "j2_small_strain", "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
+                             "density": 10.0, "yield_stress": 2.0e5, "hardening_modulus": 1.0e6}
 sim = Simulation(validate(raw), comm)
 sim.advance(0.01)
 sim.advance(0.01)
 state, _ = sim.prepare_step(0.01)
+if plastic:
+    n_plastic = comm.allreduce(int(np.sum(sim.particles["h_eq_plastic_strain"] > 0)))
+    assert n_plastic > 10, n_plastic
 solver = sim.solver
 solver.state = state
 rng = np.random.default_rng(1 + comm.rank)

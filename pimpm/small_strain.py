@@ -1,0 +1,81 @@
+"""Small-strain models embedded in the finite-deformation solver: linear
+elasticity and J2 (von Mises) plasticity with the bilinear hardening /
+softening of Sulsky & Kaul (2004) eq. 2.1.13-2.1.19, radial return and its
+algorithmic tangent. Pure functions of arrays.
+
+The strain is eps = sym(F) - 1 (total, from the particle's F), the stress
+sigma = D : (eps - eps_p). So that Newton converges quadratically, the
+spatial tangent handed to the assembly is the exact derivative of this
+stress under the solver's convention (d tau = J c:H + H tau + tau H^T for
+F -> (1 + H) F):
+
+    c_abcd = sigma_ab d_cd + D_abce F_de - d_ac sigma_db - d_bc sigma_ad
+
+with D the (algorithmic) small-strain tangent d sigma / d eps. It has no
+minor symmetry in general, which the assembly does not assume.
+"""
+import numpy as np
+
+I3 = np.eye(3)
+II = np.einsum("ij,kl->ijkl", I3, I3)
+IS = 0.5 * (np.einsum("ik,jl->ijkl", I3, I3) + np.einsum("il,jk->ijkl", I3, I3))
+IDEV = IS - II / 3.0
+
+
+def small_strain(F):
+    return 0.5 * (F + np.swapaxes(F, -1, -2)) - I3
+
+
+def spatial_tangent(sigma, D, F):
+    """c from the small-strain tangent D (see the module docstring)."""
+    c = np.einsum("pab,cd->pabcd", sigma, I3)
+    c += np.einsum("pabce,pde->pabcd", D, F)
+    c -= np.einsum("ac,pdb->pabcd", I3, sigma)
+    c -= np.einsum("bc,pad->pabcd", I3, sigma)
+    return c
+
+
+def yield_stress(alpha, tau0, h1, alpha_l, h2):
+    """Sulsky & Kaul eq. 2.1.19: tau0 + h1 alpha up to alpha_l, then
+    softening (or hardening) with slope -h2."""
+    if not np.isfinite(alpha_l):
+        return tau0 + h1 * alpha
+    tau_l = tau0 + h1 * alpha_l
+    return np.where(alpha <= alpha_l, tau0 + h1 * alpha, tau_l - h2 * (alpha - alpha_l))
+
+
+def j2_return(eps, eps_p, alpha, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0.0):
+    """Radial return for von Mises plasticity with piecewise-linear isotropic
+    hardening. Returns sigma, D (algorithmic tangent), eps_p_new, alpha_new,
+    plastic work increment density."""
+    n = len(eps)
+    eps_e = eps - eps_p
+    tr = np.trace(eps_e, axis1=1, axis2=2)
+    dev = eps_e - tr[:, None, None] / 3.0 * I3
+    s_trial = 2.0 * mu * dev
+    norm = np.sqrt(np.sum(s_trial * s_trial, axis=(1, 2)))
+    q_trial = np.sqrt(1.5) * norm
+    f_trial = q_trial - yield_stress(alpha, tau0, h1, alpha_l, h2)
+    plastic = f_trial > 1e-12 * max(tau0, 1e-300)
+    # Delta alpha on the segment alpha_n is on, then on the softening segment if crossed
+    slope = np.where(alpha < alpha_l, h1, -h2)
+    d_alpha = np.where(plastic, f_trial / (3.0 * mu + slope), 0.0)
+    crossed = plastic & (alpha < alpha_l) & (alpha + d_alpha > alpha_l)
+    if np.any(crossed):
+        tau_l = tau0 + h1 * alpha_l
+        d2 = (q_trial - tau_l - 3.0 * mu * (alpha_l - alpha)) / (3.0 * mu - h2)
+        d_alpha = np.where(crossed, (alpha_l - alpha) + d2, d_alpha)
+        slope = np.where(crossed, -h2, slope)
+    safe = np.where(norm > 0, norm, 1.0)
+    unit = s_trial / safe[:, None, None]
+    s = s_trial - (2.0 * mu * np.sqrt(1.5) * d_alpha)[:, None, None] * unit
+    sigma = kappa * tr[:, None, None] * I3 + s
+    eps_p_new = eps_p + (np.sqrt(1.5) * d_alpha)[:, None, None] * unit
+    alpha_new = alpha + d_alpha
+    # algorithmic tangent (Simo & Hughes, Box 3.2 in terms of q)
+    theta = np.where(plastic, 1.0 - 3.0 * mu * d_alpha / np.where(q_trial > 0, q_trial, 1.0), 1.0)
+    theta_bar = np.where(plastic, 1.0 / (1.0 + slope / (3.0 * mu)) - (1.0 - theta), 0.0)
+    D = (kappa * II + 2.0 * mu * theta[:, None, None, None, None] * IDEV
+         - 2.0 * mu * theta_bar[:, None, None, None, None] * np.einsum("pab,pcd->pabcd", unit, unit))
+    work = np.sum(s * (eps_p_new - eps_p), axis=(1, 2))
+    return sigma, D, eps_p_new, alpha_new, work

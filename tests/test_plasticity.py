@@ -1,0 +1,109 @@
+"""Small-strain J2 plasticity (Sulsky & Kaul 2004 eq. 2.1.13-2.1.19): the
+return mapping, its algorithmic tangent, plastic work, the uniaxial
+stress-strain curve, and the linear elastic small-strain model."""
+import numpy as np
+import pytest
+
+from pimpm.materials import make_material
+from pimpm.small_strain import yield_stress
+
+E, NU = 1000.0, 0.3
+SPEC = {"model": "j2_small_strain", "youngs_modulus": E, "poisson_ratio": NU, "density": 10.0,
+        "yield_stress": 6.0, "hardening_modulus": 50.0}
+
+
+def history(n, eps_p=None, alpha=None):
+    return {"plastic_strain": np.zeros((n, 3, 3)) if eps_p is None else eps_p,
+            "eq_plastic_strain": np.zeros(n) if alpha is None else alpha,
+            "plastic_work": np.zeros(n)}
+
+
+def random_states(n, scale, seed):
+    rng = np.random.default_rng(seed)
+    F = np.eye(3) + scale * rng.standard_normal((n, 3, 3))
+    F[: n // 2, 2, :2] = F[: n // 2, :2, 2] = 0.0        # half of them plane-strain shaped
+    F[: n // 2, 2, 2] = 1.0
+    sym = rng.standard_normal((n, 3, 3)) * 0.002
+    eps_p = 0.5 * (sym + np.swapaxes(sym, 1, 2))
+    eps_p -= np.trace(eps_p, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
+    return F, history(n, eps_p, np.abs(rng.standard_normal(n)) * 0.003)
+
+
+@pytest.mark.parametrize("spec", [SPEC, dict(SPEC, softening_strain=0.004, softening_modulus=30.0)])
+def test_return_mapping_lands_on_the_yield_surface(spec):
+    m = make_material(spec)
+    F, h = random_states(40, 0.02, 1)
+    sigma, _, new = m.update(F, h, tangent=False)
+    s = sigma - np.trace(sigma, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
+    q = np.sqrt(1.5 * np.sum(s * s, axis=(1, 2)))
+    limit = yield_stress(new["eq_plastic_strain"], m.yield_stress, m.hardening_modulus,
+                         m.softening_strain, m.softening_modulus)
+    plastic = new["eq_plastic_strain"] > h["eq_plastic_strain"]
+    assert plastic.sum() > 10 and (~plastic).sum() >= 0
+    np.testing.assert_allclose(q[plastic], limit[plastic], rtol=1e-10)
+    assert np.all(q[~plastic] <= limit[~plastic] * (1 + 1e-10))
+    assert np.all(new["plastic_work"] >= 0.0) and np.all(new["plastic_work"][plastic] > 0.0)
+    # plastic flow is deviatoric
+    assert np.allclose(np.trace(new["plastic_strain"], axis1=1, axis2=2),
+                       np.trace(h["plastic_strain"], axis1=1, axis2=2), atol=1e-15)
+
+
+@pytest.mark.parametrize("scale", [1e-4, 0.02])     # elastic and plastic states
+@pytest.mark.parametrize("model", ["j2_small_strain", "linear_elastic"])
+def test_algorithmic_tangent_matches_finite_differences(scale, model):
+    """d tau / d eps for F -> (1 + eps H) F equals J c:H + H tau + tau H^T
+    (the solver's convention) with the history at t held fixed."""
+    spec = SPEC if model == "j2_small_strain" else {k: v for k, v in SPEC.items()
+                                                    if k in ("youngs_modulus", "poisson_ratio", "density")}
+    m = make_material(dict(spec, model=model))
+    F, h = random_states(30, scale, 2)
+    if model == "linear_elastic":
+        h = {}
+    sigma, c, _ = m.update(F, h)
+    rng = np.random.default_rng(5)
+    J = np.linalg.det(F)
+    tau = J[:, None, None] * sigma
+    for _ in range(3):
+        H = rng.standard_normal((3, 3))
+        eps = 1e-7
+        taus = []
+        for sgn in (1, -1):
+            Fe = np.matmul(np.eye(3) + sgn * eps * H, F)
+            s, _, _ = m.update(Fe, h, tangent=False)
+            taus.append(np.linalg.det(Fe)[:, None, None] * s)
+        fd = (taus[0] - taus[1]) / (2 * eps)
+        exact = J[:, None, None] * np.einsum("pabcd,cd->pab", c, H) + H @ tau + tau @ H.T
+        assert np.max(np.abs(fd - exact)) < 1e-6 * np.max(np.abs(J[:, None, None, None, None] * c))
+
+
+def test_uniaxial_stress_follows_the_bilinear_curve():
+    """Strain-controlled uniaxial stress (sigma_yy = sigma_zz = 0 by local
+    Newton on the lateral stretches): sigma = E eps below yield, then
+    tau0 + E_t (eps - tau0 / E) with E_t = E H / (E + H)."""
+    m = make_material(SPEC)
+    h = history(1)
+    lateral = np.zeros(2)
+    H = m.hardening_modulus
+    for eps_x in np.linspace(0.0005, 0.03, 60):
+        for _ in range(30):
+            F = np.diag([1.0 + eps_x, 1.0 + lateral[0], 1.0 + lateral[1]])[None]
+            sigma, c, new = m.update(F, h)
+            r = np.array([sigma[0, 1, 1], sigma[0, 2, 2]])
+            if np.max(np.abs(r)) < 1e-11 * E:
+                break
+            # small strain: d sigma_ii / d eps_jj from the spatial tangent (F ~ 1)
+            K = np.array([[c[0, 1, 1, 1, 1], c[0, 1, 1, 2, 2]], [c[0, 2, 2, 1, 1], c[0, 2, 2, 2, 2]]])
+            lateral -= np.linalg.solve(K, r)
+        h = new
+        tau0 = m.yield_stress
+        expected = E * eps_x if E * eps_x <= tau0 else tau0 + E * H / (E + H) * (eps_x - tau0 / E)
+        assert abs(sigma[0, 0, 0] - expected) < 1e-6 * max(expected, 1.0), eps_x
+
+
+def test_linear_elastic_small_strain_is_hookes_law():
+    m = make_material({"model": "linear_elastic", "youngs_modulus": E, "poisson_ratio": NU,
+                       "density": 1.0})
+    eps = 1e-3 * np.array([[1.0, 0.3, 0.0], [0.3, -0.5, 0.2], [0.0, 0.2, 0.4]])
+    sigma = m.stress((np.eye(3) + eps)[None])[0]
+    lam, mu = E * NU / ((1 + NU) * (1 - 2 * NU)), E / (2 * (1 + NU))
+    np.testing.assert_allclose(sigma, lam * np.trace(eps) * np.eye(3) + 2 * mu * eps, rtol=1e-12)
