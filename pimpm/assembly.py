@@ -34,9 +34,10 @@ def deformation_increment(grad_u):
 
 
 def incremental_first_piola(sigma, F_inc, dim):
-    """In-plane part of P = J_inc sigma F_inc^-T, (n, dim, dim)."""
+    """In-plane part of P = J_inc sigma F_inc^-T, (n, dim, dim). J_inc is the
+    full 3x3 determinant (in plane stress F_inc[2,2] is the thickness stretch)."""
     F2 = F_inc[:, :dim, :dim]
-    J_inc = smallmat.det(F2)
+    J_inc = smallmat.det(F_inc)
     F_inv_T = np.transpose(smallmat.inv(F2), (0, 2, 1))
     return J_inc[:, None, None] * np.matmul(sigma[:, :dim, :dim], F_inv_T)
 
@@ -66,7 +67,7 @@ def element_tangents(sigma, c, F_inc, G, volume):
     """Per-particle stiffness blocks (n, nn*dim, nn*dim): material + geometric
     stiffness of G&W step 2 (row index i*dim + a, column j*dim + b)."""
     n, nn, dim = G.shape
-    J_inc = smallmat.det(F_inc[:, :dim, :dim])
+    J_inc = smallmat.det(F_inc)            # full 3x3: thickness change in plane stress
     v = volume * J_inc
     g = current_gradients(F_inc, G)
     a = spatial_tangent(sigma, c, dim)

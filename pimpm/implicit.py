@@ -47,6 +47,7 @@ class StepState:
     extra: dict = field(default_factory=dict)
 
     scheme: str = "newmark"       # newmark | backward_euler | quasi_static
+    plane_stress: bool = False    # solve F33 so that sigma33 = 0 at every particle
     history: dict = field(default_factory=dict)   # material history at t (per particle)
 
     @property
@@ -81,7 +82,34 @@ def particle_kinematics(state, u_local):
     return F_inc, F, int(np.sum(~(J_inc > 0.0)))
 
 
-def constitutive_update(state, F, tangent):
+def material_update(material, F, history, tangent, plane_stress=False, F_inc=None):
+    """``material.update`` for plane strain / 3D, or for plane stress: the
+    thickness stretch F33 is found by a vectorized local Newton so that
+    sigma33 = 0 (d sigma33 / d ln F33 = c3333 + sigma33), F and F_inc are
+    updated in place, and the in-plane tangent is condensed,
+    c_abcd - c_ab33 c_33cd / c_3333, so Newton on the grid stays exact."""
+    if not plane_stress or len(F) == 0:
+        return material.update(F, history, tangent)
+    for _ in range(50):
+        sigma, c, new = material.update(F, history, True)
+        s33 = sigma[:, 2, 2]
+        scale = np.abs(c[:, 2, 2, 2, 2]) + np.abs(sigma).max(axis=(1, 2))
+        if np.all(np.abs(s33) <= 1e-13 * scale):
+            break
+        step = np.exp(-s33 / (c[:, 2, 2, 2, 2] + s33))
+        F[:, 2, 2] *= step
+        if F_inc is not None:
+            F_inc[:, 2, 2] *= step
+    if tangent:
+        c = c.copy()
+        c[:, :2, :2, :2, :2] -= (c[:, :2, :2, 2, 2][:, :, :, None, None] * c[:, 2, 2, :2, :2][:, None, None, :, :]
+                                 / c[:, 2, 2, 2, 2][:, None, None, None, None])
+    else:
+        c = None
+    return sigma, c, new
+
+
+def constitutive_update(state, F, tangent, F_inc=None):
     """Cauchy stress (n, 3, 3) and, if ``tangent``, the spatial elasticity
     tensor (n, 3, 3, 3, 3) for every particle, material by material. History
     variables start from the values committed at t (``state.history``); the
@@ -92,7 +120,13 @@ def constitutive_update(state, F, tangent):
     new_history = {k: v.copy() for k, v in state.history.items()}
     for material, index in state.material_groups:
         old = {k: state.history[k][index] for k in material.history}
-        s, cc, new = material.update(F[index], old, tangent)
+        Fi = F[index]
+        Fi_inc = F_inc[index] if F_inc is not None else None
+        s, cc, new = material_update(material, Fi, old, tangent, state.plane_stress, Fi_inc)
+        if state.plane_stress:                 # write the solved thickness stretch back
+            F[index] = Fi
+            if F_inc is not None:
+                F_inc[index] = Fi_inc
         sigma[index] = s
         if tangent:
             c[index] = cc
@@ -246,7 +280,7 @@ class ImplicitSolver:
             return None
         F_inc, F = kin
         with self._stage("Constitutive update"):
-            sigma, _ = constitutive_update(st, F, tangent=False)
+            sigma, _ = constitutive_update(st, F, tangent=False, F_inc=F_inc)
         r = self.internal_force(sigma, F_inc) - st.external_force
         if st.dynamic:
             r += st.inertia(u_owned)
@@ -279,7 +313,7 @@ class ImplicitSolver:
         if self.matrix_free:
             if kin is not None:
                 with self._stage("Constitutive update"):
-                    sigma, c = constitutive_update(st, kin[1], tangent=True)
+                    sigma, c = constitutive_update(st, kin[1], tangent=True, F_inc=kin[0])
                 self.shell.update(st, sigma, c, kin[0], self.residual_scale)
             P.assemble()
             if J != P:
@@ -290,7 +324,7 @@ class ImplicitSolver:
         if kin is not None and len(kin[1]):
             F_inc, F = kin
             with self._stage("Constitutive update"):
-                sigma, c = constitutive_update(st, F, tangent=True)
+                sigma, c = constitutive_update(st, F, tangent=True, F_inc=F_inc)
             with self._stage("Assembly"):
                 Ke = assembly.element_tangents(sigma, c, F_inc, st.G, st.volume_n)
                 Ke = assembly.sum_by_group(Ke[st.group_order], st.group_starts)

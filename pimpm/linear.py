@@ -116,7 +116,7 @@ class TangentShell:
         self.state = state
         self.scale = scale
         self.g = assembly.current_gradients(F_inc, state.G)
-        self.v = state.volume_n * smallmat.det(F_inc[:, :dim, :dim])
+        self.v = state.volume_n * smallmat.det(F_inc)
         self.a = assembly.spatial_tangent(sigma, c, dim)
 
     def mult(self, mat, x, y):

@@ -296,37 +296,54 @@ class CompressibleNeoHookean(Material):
 
 
 class SmallStrainElastic(Material):
-    """Linear elasticity in the small strain eps = sym(F) - 1 (Sulsky & Kaul's
-    bars); not objective: for small rotations only."""
+    """Linear elasticity in the accumulated small strain (Sulsky & Kaul's
+    bars; ``pimpm/small_strain.py``). Not objective: for small rotations."""
 
     name = "linear_elastic"
+    history = {"strain": (3, 3), "deformation_gradient": (3, 3)}
 
-    def _elastic_tangent(self, n):
-        D = self.bulk_modulus * small_strain.II + 2.0 * self.shear_modulus * small_strain.IDEV
-        return np.broadcast_to(D, (n, 3, 3, 3, 3))
+    def _hooke(self, eps):
+        tr = np.trace(eps, axis1=-2, axis2=-1)[..., None, None]
+        return self.bulk_modulus * tr * _I + 2.0 * self.shear_modulus * (eps - tr / 3.0 * _I)
+
+    def _strain(self, F, history):
+        if history and "strain" in history:
+            d_eps, F_inc = small_strain.strain_increment(F, history["deformation_gradient"])
+            return history["strain"] + d_eps, F_inc
+        return small_strain.small_strain(F), F      # no history: total small strain
+
+    def update(self, F, history, tangent=True):
+        F = _as_F(F)
+        eps, F_inc = self._strain(F, history)
+        sigma = self._hooke(eps)
+        c = None
+        if tangent:
+            D = self.bulk_modulus * small_strain.II + 2.0 * self.shear_modulus * small_strain.IDEV
+            c = small_strain.spatial_tangent(sigma, np.broadcast_to(D, (len(F),) + D.shape), F_inc)
+        return sigma, c, {"strain": eps, "deformation_gradient": F.copy()}
 
     def _kernel(self, F, tangent):
-        F = _as_F(F)
-        eps = small_strain.small_strain(F)
-        tr = np.trace(eps, axis1=-2, axis2=-1)[..., None, None]
-        sigma = self.bulk_modulus * tr * _I + 2.0 * self.shear_modulus * (eps - tr / 3.0 * _I)
-        if not tangent:
-            return sigma, None
-        return sigma, small_strain.spatial_tangent(sigma, self._elastic_tangent(len(F)), F)
+        sigma, c, _ = self.update(F, {}, tangent)
+        return sigma, c
+
+    def strain_energy(self, F, history=None):
+        eps = history["strain"] if history else small_strain.small_strain(_as_F(F))
+        eps_p = history.get("plastic_strain", 0.0) if history else 0.0
+        return 0.5 * np.sum(self._hooke(eps - eps_p) * (eps - eps_p), axis=(-2, -1))
 
     def _energy(self, F):
-        eps = small_strain.small_strain(_as_F(F))
-        sigma, _ = self._kernel(F, tangent=False)
-        return 0.5 * np.sum(sigma * eps, axis=(-2, -1))
+        return self.strain_energy(F)
 
 
 class J2SmallStrain(SmallStrainElastic):
     """Small-strain von Mises plasticity with the bilinear hardening /
     softening of Sulsky & Kaul eq. 2.1.19 and radial return; history:
-    plastic strain, equivalent plastic strain, plastic work density."""
+    accumulated strain, plastic strain, equivalent plastic strain, plastic
+    work density."""
 
     name = "j2_small_strain"
-    history = {"plastic_strain": (3, 3), "eq_plastic_strain": (), "plastic_work": ()}
+    history = {"strain": (3, 3), "deformation_gradient": (3, 3), "plastic_strain": (3, 3),
+               "eq_plastic_strain": (), "plastic_work": ()}
 
     def __init__(self, shear_modulus, bulk_modulus, density, yield_stress, hardening_modulus=0.0,
                  softening_strain=np.inf, softening_modulus=0.0):
@@ -338,25 +355,18 @@ class J2SmallStrain(SmallStrainElastic):
 
     def update(self, F, history, tangent=True):
         F = _as_F(F)
-        sigma, D, eps_p, alpha, work = small_strain.j2_return(
-            small_strain.small_strain(F), history["plastic_strain"], history["eq_plastic_strain"],
-            self.shear_modulus, self.bulk_modulus, self.yield_stress, self.hardening_modulus,
-            self.softening_strain, self.softening_modulus)
-        c = small_strain.spatial_tangent(sigma, D, F) if tangent else None
-        return sigma, c, {"plastic_strain": eps_p, "eq_plastic_strain": alpha,
-                          "plastic_work": history["plastic_work"] + work}
-
-    def _kernel(self, F, tangent):      # elastic response (no history given)
-        return super()._kernel(F, tangent)
-
-    def strain_energy(self, F, history=None):
-        """Stored (elastic) energy 1/2 sigma : (eps - eps_p)."""
-        F = _as_F(F)
-        eps_p = history["plastic_strain"] if history else 0.0
-        eps_e = small_strain.small_strain(F) - eps_p
-        tr = np.trace(eps_e, axis1=-2, axis2=-1)[..., None, None]
-        sigma = self.bulk_modulus * tr * _I + 2.0 * self.shear_modulus * (eps_e - tr / 3.0 * _I)
-        return 0.5 * np.sum(sigma * eps_e, axis=(-2, -1))
+        eps, F_inc = self._strain(F, history)
+        n = len(F)
+        eps_p = history.get("plastic_strain", np.zeros((n, 3, 3))) if history else np.zeros((n, 3, 3))
+        alpha = history.get("eq_plastic_strain", np.zeros(n)) if history else np.zeros(n)
+        work0 = history.get("plastic_work", np.zeros(n)) if history else np.zeros(n)
+        sigma, D, eps_p_new, alpha_new, work = small_strain.j2_return(
+            eps, eps_p, alpha, self.shear_modulus, self.bulk_modulus, self.yield_stress,
+            self.hardening_modulus, self.softening_strain, self.softening_modulus)
+        c = small_strain.spatial_tangent(sigma, D, F_inc) if tangent else None
+        return sigma, c, {"strain": eps, "deformation_gradient": F.copy(),
+                          "plastic_strain": eps_p_new, "eq_plastic_strain": alpha_new,
+                          "plastic_work": work0 + work}
 
 
 MODELS = {

@@ -10,7 +10,8 @@ from petsc4py import PETSc
 
 from . import bodies as bc
 from .grid import Grid
-from .implicit import ImplicitSolver, StepState, constitutive_update, particle_kinematics
+from .implicit import (ImplicitSolver, StepState, constitutive_update, material_update,
+                       particle_kinematics)
 from .materials import make_material, von_mises
 from .particles import ParticleSet, migrate, seed_body
 from .shape import make_shape
@@ -92,6 +93,7 @@ class Simulation:
         self.material_names = list(config["materials"])
         self.materials = [make_material(config["materials"][k]) for k in self.material_names]
         self.integrator = config["time"]["integrator"]
+        self.plane_stress = config.get("kinematics") == "plane_stress"
         self.dynamic = self.integrator in ("newmark", "backward_euler")
         self.gravity = np.asarray(config["time"].get("gravity", [0.0] * dim), dtype=float)
         self.body_names = [b["name"] for b in config["bodies"]]
@@ -179,7 +181,8 @@ class Simulation:
             "half_size": cat(rig["half_size"], (0, dim)),
         })
         for name, shape in self.history_fields().items():
-            self.particles["h_" + name] = np.zeros((n,) + tuple(shape))
+            initial = np.broadcast_to(np.eye(3), (n, 3, 3)) if name == "deformation_gradient" else 0.0
+            self.particles["h_" + name] = np.zeros((n,) + tuple(shape)) + initial
         self._sort_by_cell(self.particles)
         self._sort_by_cell(self.rigid)
 
@@ -268,7 +271,7 @@ class Simulation:
             material_groups=groups, group_order=order, group_starts=starts,
             group_nodes=node_index[order][starts],
             mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
-            history=self.particle_history(),
+            history=self.particle_history(), plane_stress=self.plane_stress,
             fixed=cons.fixed, fixed_value=cons.value, constraint_scale=self.constraint_scale(dt))
         return state, cons
 
@@ -340,7 +343,7 @@ class Simulation:
 
         # converged state, a_g(t+dt) from eq. 16, interpolate to particles
         F_inc, F, _ = particle_kinematics(state, u_local)
-        sigma, _ = constitutive_update(state, F, tangent=False)
+        sigma, _ = constitutive_update(state, F, tangent=False, F_inc=F_inc)
         v_new, a_new = state.grid_kinematics(u)
         a_local = grid.owned_to_local(a_new)
         u_p = grid_to_particle(state.node_index, state.S, u_local)
@@ -423,7 +426,9 @@ class Simulation:
         for material, index in self.material_groups():
             if len(index):
                 old = {k: history[k][index] for k in material.history}
-                sigma[index], _, new = material.update(F[index], old, tangent=False)
+                Fi = F[index]
+                sigma[index], _, new = material_update(material, Fi, old, False, self.plane_stress)
+                F[index] = Fi
                 for k, v in new.items():
                     new_history[k][index] = v
         p["F"], p["stress"] = F, sigma

@@ -3,13 +3,16 @@ elasticity and J2 (von Mises) plasticity with the bilinear hardening /
 softening of Sulsky & Kaul (2004) eq. 2.1.13-2.1.19, radial return and its
 algorithmic tangent. Pure functions of arrays.
 
-The strain is eps = sym(F) - 1 (total, from the particle's F), the stress
-sigma = D : (eps - eps_p). So that Newton converges quadratically, the
-spatial tangent handed to the assembly is the exact derivative of this
-stress under the solver's convention (d tau = J c:H + H tau + tau H^T for
-F -> (1 + H) F):
+The strain is accumulated step by step, eps = eps_n + sym(F_inc) - 1 with
+F_inc = F F_n^-1 the increment since the last converged step (the rate form
+of Sulsky & Kaul, sigma_dot = C : (d - d_pl), integrated with the grid's
+incremental deformation; for small strains it is sym(F) - 1), and the
+stress is sigma = D : (eps - eps_p). So that Newton converges
+quadratically, the spatial tangent handed to the assembly is the exact
+derivative of this stress under the solver's convention (d tau = J c:H +
+H tau + tau H^T for F -> (1 + H) F, so d eps = sym(H F_inc)):
 
-    c_abcd = sigma_ab d_cd + D_abce F_de - d_ac sigma_db - d_bc sigma_ad
+    c_abcd = sigma_ab d_cd + D_abce (F_inc)_de - d_ac sigma_db - d_bc sigma_ad
 
 with D the (algorithmic) small-strain tangent d sigma / d eps. It has no
 minor symmetry in general, which the assembly does not assume.
@@ -26,8 +29,15 @@ def small_strain(F):
     return 0.5 * (F + np.swapaxes(F, -1, -2)) - I3
 
 
+def strain_increment(F, F_n):
+    """eps increment sym(F F_n^-1) - 1 and the increment F_inc = F F_n^-1."""
+    F_inc = np.matmul(F, np.linalg.inv(F_n))
+    return small_strain(F_inc), F_inc
+
+
 def spatial_tangent(sigma, D, F):
-    """c from the small-strain tangent D (see the module docstring)."""
+    """c from the small-strain tangent D (see the module docstring; F is the
+    increment F_inc)."""
     c = np.einsum("pab,cd->pabcd", sigma, I3)
     c += np.einsum("pabce,pde->pabcd", D, F)
     c -= np.einsum("ac,pdb->pabcd", I3, sigma)

@@ -8,17 +8,22 @@ from helpers import HERE, MPIEXEC, run_mpi
 pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
 
 
-@pytest.mark.parametrize("nranks,integrator,dim,shape,material", [
+@pytest.mark.parametrize("nranks,integrator,dim,shape,material,kinematics", [(*case, "default") for case in [
     (1, "quasi_static", "2d", "linear", "elastic"), (1, "newmark", "2d", "linear", "elastic"),
     (2, "quasi_static", "2d", "linear", "elastic"), (2, "newmark", "2d", "linear", "elastic"),
     (3, "newmark", "2d", "linear", "elastic"), (1, "newmark", "3d", "linear", "elastic"),
     (2, "quasi_static", "3d", "linear", "elastic"), (2, "backward_euler", "2d", "linear", "elastic"),
     (1, "newmark", "2d", "gimp", "elastic"), (2, "quasi_static", "2d", "gimp", "elastic"),
     (2, "newmark", "3d", "gimp", "elastic"), (1, "quasi_static", "2d", "linear", "j2"),
-    (2, "newmark", "2d", "gimp", "j2")])
-def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, shape, material):
-    proc = run_mpi(nranks, [f"{HERE}/mpi/jacobian_check.py", integrator, dim, shape, material],
-                   timeout=300)
+    (2, "newmark", "2d", "gimp", "j2")]] + [
+    (1, "quasi_static", "2d", "linear", "elastic", "plane_stress"),
+    (2, "newmark", "2d", "linear", "j2", "plane_stress")])
+def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, shape, material,
+                                                       kinematics):
+    args = [f"{HERE}/mpi/jacobian_check.py", integrator, dim, shape, material]
+    if kinematics != "default":
+        args.append(kinematics)
+    proc = run_mpi(nranks, args, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     error = float(re.search(r"relative_error=(\S+)", proc.stdout).group(1))
     assert error < 1e-6

@@ -60,6 +60,18 @@ def test_algorithmic_tangent_matches_finite_differences(scale, model):
     if model == "linear_elastic":
         h = {}
     sigma, c, _ = m.update(F, h)
+    _check_tangent(m, F, h, sigma, c)
+    # the incremental form: strain accumulated since a previous F_n
+    rng = np.random.default_rng(9)
+    F_n = np.eye(3) + 0.01 * rng.standard_normal((len(F), 3, 3))
+    sym = 0.002 * rng.standard_normal((len(F), 3, 3))
+    h = dict(h, strain=0.5 * (sym + np.swapaxes(sym, 1, 2)), deformation_gradient=F_n)
+    F = np.matmul(np.eye(3) + scale * rng.standard_normal((len(F), 3, 3)), F_n)
+    sigma, c, _ = m.update(F, h)
+    _check_tangent(m, F, h, sigma, c)
+
+
+def _check_tangent(m, F, h, sigma, c):
     rng = np.random.default_rng(5)
     J = np.linalg.det(F)
     tau = J[:, None, None] * sigma
@@ -96,7 +108,9 @@ def test_uniaxial_stress_follows_the_bilinear_curve():
             lateral -= np.linalg.solve(K, r)
         h = new
         tau0 = m.yield_stress
-        expected = E * eps_x if E * eps_x <= tau0 else tau0 + E * H / (E + H) * (eps_x - tau0 / E)
+        strain = new["strain"][0, 0, 0]      # accumulated (incremental) axial strain
+        assert abs(strain - eps_x) < 0.02 * eps_x
+        expected = E * strain if E * strain <= tau0 else tau0 + E * H / (E + H) * (strain - tau0 / E)
         assert abs(sigma[0, 0, 0] - expected) < 1e-6 * max(expected, 1.0), eps_x
 
 

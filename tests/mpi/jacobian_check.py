@@ -21,6 +21,7 @@ integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
 plastic = len(sys.argv) > 4 and sys.argv[4] == "j2"
+kinematics = sys.argv[5] if len(sys.argv) > 5 else None
 comm = MPI.COMM_WORLD
 raw = {
     "grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8],
@@ -52,6 +53,8 @@ if three_d:
     ]
     raw["time"]["gravity"] = [0.0, 0.0, -981.0]
 raw["grid"]["shape_functions"] = shape
+if kinematics:
+    raw["kinematics"] = kinematics
 if plastic:   # small-strain J2 with a low yield stress: particles yield in the first steps
     raw["materials"]["m"] = {"model": "j2_small_strain", "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
                              "density": 10.0, "yield_stress": 2.0e5, "hardening_modulus": 1.0e6}
