@@ -79,6 +79,34 @@ def element_tangents(sigma, c, F_inc, G, volume):
     return K.reshape(n, nn * dim, nn * dim)
 
 
+def hoop_force_pairs(sigma, F_inc, S, volume, radius):
+    """Axisymmetric hoop term of the internal force (radial component):
+    V_p P_thth S_ip / r_p with P_thth = J_inc sigma_thth / F_inc_thth (r_p
+    the radius at t, where the grid is reset), (n, nn)."""
+    J_inc = smallmat.det(F_inc)
+    P_hoop = J_inc * sigma[:, 2, 2] / F_inc[:, 2, 2]
+    return (volume * P_hoop / radius)[:, None] * S
+
+
+def hoop_tangents(sigma, c, F_inc, G, S, volume, radius):
+    """Axisymmetric additions to the element stiffness (n, nn*2, nn*2): the
+    hoop strain increment du_r S_j / r couples with the in-plane gradients
+    through c_ab22, c_22bd and c_2222 + sigma_22 (r the current radius)."""
+    n, nn, dim = G.shape
+    v = volume * smallmat.det(F_inc)
+    g = current_gradients(F_inc, G)
+    r = radius * F_inc[:, 2, 2]
+    w = S / r[:, None]                                       # (n, nn): hoop "gradient"
+    K = np.zeros((n, nn, dim, nn, dim))
+    # row hoop (a = r) x column in-plane: w_i c_22bd g_jd
+    K[:, :, 0, :, :] += np.einsum("pi,pbd,pjd->pijb", w, c[:, 2, 2, :dim, :dim], g)
+    # row in-plane x column hoop (b = r): g_ic c_ac22 w_j
+    K[:, :, :, :, 0] += np.einsum("pic,pac,pj->piaj", g, c[:, :dim, :dim, 2, 2], w)
+    # hoop x hoop
+    K[:, :, 0, :, 0] += np.einsum("pi,p,pj->pij", w, c[:, 2, 2, 2, 2] + sigma[:, 2, 2], w)
+    return (K * v[:, None, None, None, None]).reshape(n, nn * dim, nn * dim)
+
+
 def sum_by_group(values, starts):
     """Sum consecutive rows of ``values`` that share a group (particles sorted
     by cell; ``starts`` = first row of each group)."""

@@ -20,7 +20,7 @@ from . import assembly, smallmat
 from .convergence import GuilkeyWeissTest
 from .stages import log_stage
 from .linear import FALLBACK_OPTIONS, PRESETS, FallbackKSP, TangentShell, rigid_body_near_null_space
-from .transfer import gradient_at_particles, scatter
+from .transfer import gradient_at_particles, grid_to_particle, scatter
 
 
 @dataclass
@@ -48,6 +48,7 @@ class StepState:
 
     scheme: str = "newmark"       # newmark | backward_euler | quasi_static
     plane_stress: bool = False    # solve F33 so that sigma33 = 0 at every particle
+    radius: np.ndarray = None     # axisymmetric: particle radius at t (None otherwise)
     history: dict = field(default_factory=dict)   # material history at t (per particle)
 
     @property
@@ -76,6 +77,9 @@ def particle_kinematics(state, u_local):
     for ghosted-local nodal displacements (G&W step 5)."""
     grad_u = gradient_at_particles(state.node_index, state.G, u_local)
     F_inc = assembly.deformation_increment(grad_u)
+    if state.radius is not None:        # axisymmetric hoop stretch (r + u_r) / r
+        u_r = grid_to_particle(state.node_index, state.S, u_local)[:, 0]
+        F_inc[:, 2, 2] = 1.0 + u_r / state.radius
     F = np.matmul(F_inc, state.F_n)
     dim = state.G.shape[2]
     J_inc = smallmat.det(F_inc[:, :dim, :dim])
@@ -253,6 +257,8 @@ class ImplicitSolver:
         dim = self.grid.dim
         P = assembly.incremental_first_piola(sigma, F_inc, dim)
         pairs = assembly.internal_force_pairs(P, st.G, st.volume_n)
+        if st.radius is not None:
+            pairs[:, :, 0] += assembly.hoop_force_pairs(sigma, F_inc, st.S, st.volume_n, st.radius)
         return self.grid.sum_to_owned(scatter(st.node_index, pairs, self.grid.n_local_nodes))
 
     def _kinematics(self, u_local):
@@ -327,6 +333,8 @@ class ImplicitSolver:
                 sigma, c = constitutive_update(st, F, tangent=True, F_inc=F_inc)
             with self._stage("Assembly"):
                 Ke = assembly.element_tangents(sigma, c, F_inc, st.G, st.volume_n)
+                if st.radius is not None:
+                    Ke += assembly.hoop_tangents(sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius)
                 Ke = assembly.sum_by_group(Ke[st.group_order], st.group_starts)
                 nodes = st.group_nodes.astype(PETSc.IntType)
                 P.setValuesBlockedLocalRCV(nodes, nodes, Ke.reshape(len(nodes), -1),

@@ -94,6 +94,7 @@ class Simulation:
         self.materials = [make_material(config["materials"][k]) for k in self.material_names]
         self.integrator = config["time"]["integrator"]
         self.plane_stress = config.get("kinematics") == "plane_stress"
+        self.axisymmetric = config.get("kinematics") == "axisymmetric"
         self.dynamic = self.integrator in ("newmark", "backward_euler")
         self.gravity = np.asarray(config["time"].get("gravity", [0.0] * dim), dtype=float)
         self.body_names = [b["name"] for b in config["bodies"]]
@@ -119,8 +120,14 @@ class Simulation:
         self.solver = None
         self.last_grid = None
         if self.explicit:
+            if self.axisymmetric:
+                raise SetupError("kinematics = 'axisymmetric': expected an implicit integrator "
+                                 "(explicit axisymmetric MPM is not implemented yet)")
             self._check_explicit_time_step()
             return
+        if self.axisymmetric and config["solver"]["preset"] == "matrix-free":
+            raise SetupError("solver.preset = 'matrix-free': expected another preset with "
+                             "kinematics axisymmetric (the shell has no hoop terms yet)")
         try:
             self.solver = ImplicitSolver(self.grid, config["solver"], DEFAULT_SOLVER_OPTIONS,
                                          residual_scale(config, self.materials), self.stages)
@@ -164,6 +171,8 @@ class Simulation:
         cat = lambda lst, shape, dt=float: (np.concatenate(lst) if lst else np.zeros(shape, dtype=dt))
         x = cat(mat["x"], (0, dim))
         volume0 = cat(mat["volume0"], (0,))
+        if self.config.get("kinematics") == "axisymmetric":
+            volume0 = volume0 * 2.0 * np.pi * x[:, 0]     # area x 2 pi r (x is the radius)
         n = len(x)
         self.particles = ParticleSet({
             "x": x, "x0": x.copy(),
@@ -272,6 +281,7 @@ class Simulation:
             group_nodes=node_index[order][starts],
             mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
             history=self.particle_history(), plane_stress=self.plane_stress,
+            radius=p["x"][:, 0].copy() if self.axisymmetric else None,
             fixed=cons.fixed, fixed_value=cons.value, constraint_scale=self.constraint_scale(dt))
         return state, cons
 

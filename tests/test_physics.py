@@ -188,3 +188,47 @@ def test_elastic_plastic_bar_reproduces_sulsky_and_kaul():
     assert np.all(sim.particles["h_plastic_work"] > 0)
     # the thickness shrank (F33 < 1) and the volume follows it
     assert np.all(sim.particles["F"][:, 2, 2] < 1.0)
+
+
+def test_axisymmetric_uniform_compression_matches_3d_and_analytic():
+    """A cylinder (r-z model: axis and mid-plane rollers) compressed 5% by a
+    frictionless platen: homogeneous uniaxial stress, the same as the 3D
+    cube of test_3d_patch_test_uniaxial_compression and the analytic value
+    (F = diag(lambda, lambda_z, lambda) with sigma_rr = sigma_thth = 0)."""
+    config = validate({
+        "kinematics": "axisymmetric",
+        "grid": {"lower": [0.0, 0.0], "upper": [1.5, 1.5], "cells": [6, 6],
+                 "boundary": {"xmin": "roller", "ymin": "roller"}},
+        "materials": {"m": {"model": "neo_hookean", "youngs_modulus": 200.0, "poisson_ratio": 0.3,
+                            "density": 1.0}},
+        "bodies": [
+            {"name": "cylinder", "material": "m", "particles_per_cell": 2,
+             "geometry": {"type": "box", "lower": [0, 0], "upper": [1.0, 1.0]}},
+            {"name": "platen", "rigid": True, "particles_per_cell": 2, "constrain": ["y"],
+             "velocity": [0.0, -1.25],
+             "geometry": {"type": "box", "lower": [0, 1.0], "upper": [1.5, 1.25]}},
+        ],
+        "time": {"integrator": "quasi_static", "dt": 0.01, "end_time": 0.04},
+    })
+    sim = Simulation(config, MPI.COMM_WORLD)
+    run(sim, 4, 0.01)
+    stretch = (1.0 - 0.0125) ** 4
+    material = make_material(config["materials"]["m"])
+
+    def stress(lam):
+        return material.stress(np.diag([lam, stretch, lam])[None])[0]
+    lam = 1.0
+    for _ in range(60):
+        slope = (stress(lam + 1e-7)[0, 0] - stress(lam - 1e-7)[0, 0]) / 2e-7
+        lam -= stress(lam)[0, 0] / slope
+    exact = stress(lam)
+    sigma = sim.particles["stress"]
+    assert abs(exact[1, 1]) > 5.0
+    assert np.max(np.abs(sigma - exact)) < 1e-8 * abs(exact[1, 1])
+    assert np.allclose(sim.particles["F"], np.diag([lam, stretch, lam]), rtol=0, atol=1e-10)
+    # the volume of a particle is its area times 2 pi r
+    p = sim.particles
+    assert np.allclose(p["volume0"], (0.25**2 / 4) * 2 * np.pi * p["x0"][:, 0])
+    # the same as the 3D cube (sigma_zz of the 3D test is sigma_yy here)
+    exact_3d = material.stress(np.diag([lam, lam, stretch])[None])[0]
+    assert abs(exact_3d[2, 2] - sigma[0, 1, 1]) < 1e-8 * abs(exact_3d[2, 2])

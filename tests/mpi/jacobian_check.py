@@ -55,6 +55,8 @@ if three_d:
 raw["grid"]["shape_functions"] = shape
 if kinematics:
     raw["kinematics"] = kinematics
+if kinematics == "axisymmetric":        # r = x >= 0: keep particles off the axis cell boundary
+    raw["grid"]["boundary"] = {"xmin": "roller", "ymin": "roller"}
 if plastic:   # small-strain J2 with a low yield stress: particles yield in the first steps
     raw["materials"]["m"] = {"model": "j2_small_strain", "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
                              "density": 10.0, "yield_stress": 2.0e5, "hardening_modulus": 1.0e6}
@@ -131,5 +133,6 @@ if comm.rank == 0:
     print(f"shell_product_relative_error={shell_error:.3e}")
     print(f"jacobian_check {integrator} dim={sim.dim} shape={shape} ranks={comm.size} free_dofs={n_free} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok}")
-ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8
+# (the shell has no axisymmetric hoop terms; Simulation refuses that combination)
+ok = err / scale < 1e-6 and diag_ok and n_free > 20 and (shell_error < 1e-8 or kinematics == "axisymmetric")
 sys.exit(0 if ok else 1)
