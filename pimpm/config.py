@@ -37,7 +37,8 @@ SHAPE_FUNCTIONS = ("linear", "gimp")
 BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
 BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: ("plane_strain", "plane_stress", "axisymmetric"), 3: ("3d",)}
-MATERIAL_MODELS = ("neo_hookean", "neo_hookean_compressible", "linear_elastic", "j2_small_strain")
+MATERIAL_MODELS = ("neo_hookean", "neo_hookean_compressible", "linear_elastic", "j2_small_strain",
+                   "j2_finite_strain")
 GEOMETRY_TYPES = ("box", "ball")
 INTEGRATORS = ("newmark", "quasi_static", "explicit", "backward_euler")
 STRESS_UPDATES = ("musl", "usl", "usf")
@@ -314,7 +315,7 @@ def _validate_material(value, path):
     else:
         have = ", ".join(given) if given else "no elastic constants"
         raise ConfigError(f"{path} has {have}: expected {pairs}", path=path)
-    if model == "j2_small_strain":
+    if model in ("j2_small_strain", "j2_finite_strain"):
         out["yield_stress"] = _positive(sec.required("yield_stress", "a positive number"),
                                         sec.sub("yield_stress"))
         for key, default in (("hardening_modulus", 0.0), ("softening_modulus", 0.0)):
@@ -325,7 +326,7 @@ def _validate_material(value, path):
     else:
         for key in PLASTICITY_KEYS:
             if sec.has(key):
-                _fail(sec.sub(key), sec.data[key], "plasticity parameters only with model j2_small_strain")
+                _fail(sec.sub(key), sec.data[key], "plasticity parameters only with a j2 model")
     return out
 
 

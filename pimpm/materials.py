@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import small_strain
+from . import finite_plasticity, small_strain
 
 __all__ = [
     "uncoupled_neo_hookean",
@@ -369,11 +369,61 @@ class J2SmallStrain(SmallStrainElastic):
                           "plastic_work": work0 + work}
 
 
+class J2FiniteStrain(Material):
+    """Finite-strain von Mises plasticity: multiplicative split with the
+    uncoupled neo-Hookean elastic part, isochoric radial return and its
+    consistent tangent (``pimpm/finite_plasticity.py``); Sulsky & Kaul's
+    bilinear hardening / softening."""
+
+    name = "j2_finite_strain"
+    history = {"deformation_gradient": (3, 3), "elastic_left_cauchy_green": (3, 3),
+               "eq_plastic_strain": (), "plastic_work": ()}
+
+    def __init__(self, shear_modulus, bulk_modulus, density, yield_stress, hardening_modulus=0.0,
+                 softening_strain=np.inf, softening_modulus=0.0):
+        super().__init__(shear_modulus, bulk_modulus, density)
+        self.yield_stress = float(yield_stress)
+        self.hardening_modulus = float(hardening_modulus)
+        self.softening_strain = float(softening_strain)
+        self.softening_modulus = float(softening_modulus)
+
+    def update(self, F, history, tangent=True):
+        F = _as_F(F)
+        n = len(F)
+        eye = np.broadcast_to(np.eye(3), (n, 3, 3))
+        F_n = history.get("deformation_gradient", eye) if history else eye
+        bbar_n = history.get("elastic_left_cauchy_green", eye) if history else eye
+        alpha_n = history.get("eq_plastic_strain", np.zeros(n)) if history else np.zeros(n)
+        work_n = history.get("plastic_work", np.zeros(n)) if history else np.zeros(n)
+        sigma, c, bbar, alpha, work = finite_plasticity.j2_finite(
+            F, F_n, bbar_n, alpha_n, self.shear_modulus, self.bulk_modulus, self.yield_stress,
+            self.hardening_modulus, self.softening_strain, self.softening_modulus, tangent)
+        return sigma, c, {"deformation_gradient": F.copy(), "elastic_left_cauchy_green": bbar,
+                          "eq_plastic_strain": alpha, "plastic_work": work_n + work}
+
+    def _kernel(self, F, tangent):
+        sigma, c, _ = self.update(F, {}, tangent)
+        return sigma, c
+
+    def strain_energy(self, F, history=None):
+        """Stored energy of the elastic part: kappa/2 (ln J)^2 + mu/2 (tr bbar_e - 3)."""
+        F = _as_F(F)
+        J = np.linalg.det(F)
+        bbar = history["elastic_left_cauchy_green"] if history else \
+            J[:, None, None] ** (-2.0 / 3.0) * np.matmul(F, np.swapaxes(F, 1, 2))
+        return 0.5 * self.bulk_modulus * np.log(J) ** 2 + 0.5 * self.shear_modulus * (
+            np.trace(bbar, axis1=1, axis2=2) - 3.0)
+
+    def _energy(self, F):
+        return self.strain_energy(F)
+
+
 MODELS = {
     "neo_hookean": UncoupledNeoHookean,
     "neo_hookean_compressible": CompressibleNeoHookean,
     "linear_elastic": SmallStrainElastic,
     "j2_small_strain": J2SmallStrain,
+    "j2_finite_strain": J2FiniteStrain,
 }
 
 
@@ -408,7 +458,7 @@ def make_material(spec):
     if "density" not in spec:
         raise ValueError("material spec needs a density")
     mu, kappa = elastic_moduli(spec)
-    if model == "j2_small_strain":
+    if model in ("j2_small_strain", "j2_finite_strain"):
         extra = {k: spec[k] for k in ("yield_stress", "hardening_modulus", "softening_strain",
                                       "softening_modulus") if spec.get(k) is not None}
         return MODELS[model](mu, kappa, spec["density"], **extra)

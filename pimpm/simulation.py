@@ -190,7 +190,8 @@ class Simulation:
             "half_size": cat(rig["half_size"], (0, dim)),
         })
         for name, shape in self.history_fields().items():
-            initial = np.broadcast_to(np.eye(3), (n, 3, 3)) if name == "deformation_gradient" else 0.0
+            identity = name in ("deformation_gradient", "elastic_left_cauchy_green")
+            initial = np.broadcast_to(np.eye(3), (n, 3, 3)) if identity else 0.0
             self.particles["h_" + name] = np.zeros((n,) + tuple(shape)) + initial
         self._sort_by_cell(self.particles)
         self._sort_by_cell(self.rigid)

@@ -19,7 +19,9 @@ pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
     (1, "quasi_static", "2d", "linear", "elastic", "plane_stress"),
     (2, "newmark", "2d", "linear", "j2", "plane_stress"),
     (1, "quasi_static", "2d", "linear", "elastic", "axisymmetric"),
-    (2, "newmark", "2d", "linear", "j2", "axisymmetric")])
+    (2, "newmark", "2d", "linear", "j2", "axisymmetric"),
+    (1, "quasi_static", "2d", "linear", "j2finite", "axisymmetric"),
+    (2, "newmark", "3d", "linear", "j2finite", "default")])
 def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, shape, material,
                                                        kinematics):
     args = [f"{HERE}/mpi/jacobian_check.py", integrator, dim, shape, material]

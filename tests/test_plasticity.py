@@ -121,3 +121,55 @@ def test_linear_elastic_small_strain_is_hookes_law():
     sigma = m.stress((np.eye(3) + eps)[None])[0]
     lam, mu = E * NU / ((1 + NU) * (1 - 2 * NU)), E / (2 * (1 + NU))
     np.testing.assert_allclose(sigma, lam * np.trace(eps) * np.eye(3) + 2 * mu * eps, rtol=1e-12)
+
+
+FINITE = {"model": "j2_finite_strain", "shear_modulus": 80.0, "bulk_modulus": 170.0, "density": 1.0,
+          "yield_stress": 0.5, "hardening_modulus": 3.0}
+
+
+def finite_history(n, seed):
+    rng = np.random.default_rng(seed)
+    F_n = np.eye(3) + 0.05 * rng.standard_normal((n, 3, 3))
+    b = np.eye(3) + 0.003 * rng.standard_normal((n, 3, 3))
+    b = 0.5 * (b + np.swapaxes(b, 1, 2))
+    b = b / np.linalg.det(b)[:, None, None] ** (1 / 3)
+    return F_n, {"deformation_gradient": F_n, "elastic_left_cauchy_green": b,
+                 "eq_plastic_strain": 0.01 * np.abs(rng.standard_normal(n)), "plastic_work": np.zeros(n)}
+
+
+@pytest.mark.parametrize("yield_stress", [1e6, 0.5])     # elastic, plastic
+@pytest.mark.parametrize("scale", [1e-5, 0.03])
+def test_finite_strain_j2_tangent_matches_finite_differences(yield_stress, scale):
+    m = make_material(dict(FINITE, yield_stress=yield_stress))
+    F_n, h = finite_history(20, 0)
+    rng = np.random.default_rng(1)
+    F = np.matmul(np.eye(3) + scale * rng.standard_normal((20, 3, 3)), F_n)
+    sigma, c, new = m.update(F, h)
+    plastic = new["eq_plastic_strain"] > h["eq_plastic_strain"]
+    assert plastic.sum() == (0 if yield_stress > 1e3 else 20) or scale < 1e-3
+    _check_tangent(m, F, h, sigma, c)
+
+
+def test_finite_strain_j2_return_mapping():
+    """After the return the Kirchhoff deviator is on the yield surface,
+    ||s|| = sqrt(2/3) sigma_y(alpha); plastic work is non-negative;
+    objectivity of the update. (As in Simo & Hughes Box 9.1, bbar_e =
+    s / mu + I_e 1 is not renormalized to det = 1.)"""
+    m = make_material(FINITE)
+    F_n, h = finite_history(30, 3)
+    rng = np.random.default_rng(4)
+    F = np.matmul(np.eye(3) + 0.03 * rng.standard_normal((30, 3, 3)), F_n)
+    sigma, _, new = m.update(F, h, tangent=False)
+    J = np.linalg.det(F)
+    tau = J[:, None, None] * sigma
+    s = tau - np.trace(tau, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
+    plastic = new["eq_plastic_strain"] > h["eq_plastic_strain"]
+    assert plastic.sum() > 20
+    limit = np.sqrt(2 / 3) * (m.yield_stress + m.hardening_modulus * new["eq_plastic_strain"])
+    np.testing.assert_allclose(np.sqrt(np.sum(s * s, axis=(1, 2)))[plastic], limit[plastic], rtol=1e-10)
+    assert np.all(new["plastic_work"] >= 0) and np.all(new["plastic_work"][plastic] > 0)
+    # rotating the current configuration rotates the stress
+    theta = 0.7
+    Q = np.array([[np.cos(theta), -np.sin(theta), 0], [np.sin(theta), np.cos(theta), 0], [0, 0, 1.0]])
+    sigma_q, _, _ = m.update(np.matmul(Q, F), h, tangent=False)
+    np.testing.assert_allclose(sigma_q, Q @ sigma @ Q.T, atol=1e-12 * np.abs(sigma).max())

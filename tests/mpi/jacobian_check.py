@@ -20,7 +20,7 @@ from pimpm.simulation import Simulation
 integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
-plastic = len(sys.argv) > 4 and sys.argv[4] == "j2"
+plastic = len(sys.argv) > 4 and sys.argv[4] in ("j2", "j2finite")
 kinematics = sys.argv[5] if len(sys.argv) > 5 else None
 comm = MPI.COMM_WORLD
 raw = {
@@ -58,7 +58,8 @@ if kinematics:
 if kinematics == "axisymmetric":        # r = x >= 0: keep particles off the axis cell boundary
     raw["grid"]["boundary"] = {"xmin": "roller", "ymin": "roller"}
 if plastic:   # small-strain J2 with a low yield stress: particles yield in the first steps
-    raw["materials"]["m"] = {"model": "j2_small_strain", "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
+    raw["materials"]["m"] = {"model": "j2_small_strain" if sys.argv[4] == "j2" else "j2_finite_strain",
+                             "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
                              "density": 10.0, "yield_stress": 2.0e5, "hardening_modulus": 1.0e6}
 sim = Simulation(validate(raw), comm)
 sim.advance(0.01)
