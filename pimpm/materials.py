@@ -295,6 +295,19 @@ class CompressibleNeoHookean(Material):
         return compressible_neo_hookean_energy(F, self.lame_lambda, self.shear_modulus)
 
 
+class PlasticParameters:
+    """Yield stress and the bilinear hardening / softening of Sulsky & Kaul
+    eq. 2.1.19 (mixed into the J2 models before Material)."""
+
+    def __init__(self, shear_modulus, bulk_modulus, density, yield_stress, hardening_modulus=0.0,
+                 softening_strain=np.inf, softening_modulus=0.0):
+        super().__init__(shear_modulus, bulk_modulus, density)
+        self.yield_stress = float(yield_stress)
+        self.hardening_modulus = float(hardening_modulus)
+        self.softening_strain = float(softening_strain)
+        self.softening_modulus = float(softening_modulus)
+
+
 class SmallStrainElastic(Material):
     """Linear elasticity in the accumulated small strain (Sulsky & Kaul's
     bars; ``pimpm/small_strain.py``). Not objective: for small rotations."""
@@ -335,7 +348,7 @@ class SmallStrainElastic(Material):
         return self.strain_energy(F)
 
 
-class J2SmallStrain(SmallStrainElastic):
+class J2SmallStrain(PlasticParameters, SmallStrainElastic):
     """Small-strain von Mises plasticity with the bilinear hardening /
     softening of Sulsky & Kaul eq. 2.1.19 and radial return; history:
     accumulated strain, plastic strain, equivalent plastic strain, plastic
@@ -344,14 +357,6 @@ class J2SmallStrain(SmallStrainElastic):
     name = "j2_small_strain"
     history = {"strain": (3, 3), "deformation_gradient": (3, 3), "plastic_strain": (3, 3),
                "eq_plastic_strain": (), "plastic_work": ()}
-
-    def __init__(self, shear_modulus, bulk_modulus, density, yield_stress, hardening_modulus=0.0,
-                 softening_strain=np.inf, softening_modulus=0.0):
-        super().__init__(shear_modulus, bulk_modulus, density)
-        self.yield_stress = float(yield_stress)
-        self.hardening_modulus = float(hardening_modulus)
-        self.softening_strain = float(softening_strain)
-        self.softening_modulus = float(softening_modulus)
 
     def update(self, F, history, tangent=True):
         F = _as_F(F)
@@ -369,7 +374,7 @@ class J2SmallStrain(SmallStrainElastic):
                           "plastic_work": work0 + work}
 
 
-class J2FiniteStrain(Material):
+class J2FiniteStrain(PlasticParameters, Material):
     """Finite-strain von Mises plasticity: multiplicative split with the
     uncoupled neo-Hookean elastic part, isochoric radial return and its
     consistent tangent (``pimpm/finite_plasticity.py``); Sulsky & Kaul's
@@ -378,14 +383,6 @@ class J2FiniteStrain(Material):
     name = "j2_finite_strain"
     history = {"deformation_gradient": (3, 3), "elastic_left_cauchy_green": (3, 3),
                "eq_plastic_strain": (), "plastic_work": ()}
-
-    def __init__(self, shear_modulus, bulk_modulus, density, yield_stress, hardening_modulus=0.0,
-                 softening_strain=np.inf, softening_modulus=0.0):
-        super().__init__(shear_modulus, bulk_modulus, density)
-        self.yield_stress = float(yield_stress)
-        self.hardening_modulus = float(hardening_modulus)
-        self.softening_strain = float(softening_strain)
-        self.softening_modulus = float(softening_modulus)
 
     def update(self, F, history, tangent=True):
         F = _as_F(F)

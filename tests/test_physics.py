@@ -43,6 +43,18 @@ def homogeneous_plane_strain(material, stretch, axis, free_axis):
     return stress(lam), lam
 
 
+def equal_lateral_stretch(material, F_of):
+    """The lateral stretch lam with sigma_00(F_of(lam)) = 0 (scalar Newton with
+    a finite-difference slope), and the stress there."""
+    def stress(lam):
+        return material.stress(F_of(lam)[None])[0]
+    lam = 1.0
+    for _ in range(60):
+        slope = (stress(lam + 1e-7)[0, 0] - stress(lam - 1e-7)[0, 0]) / 2e-7
+        lam -= stress(lam)[0, 0] / slope
+    return lam, stress(lam)
+
+
 def run(sim, steps, dt):
     info = None
     for _ in range(steps):
@@ -154,13 +166,7 @@ def test_3d_patch_test_uniaxial_compression():
     stretch = (1.0 - 0.0125) ** 4
     material = make_material(config["materials"]["m"])
 
-    def stress(lam):
-        return material.stress(np.diag([lam, lam, stretch])[None])[0]
-    lam = 1.0
-    for _ in range(60):
-        slope = (stress(lam + 1e-7)[0, 0] - stress(lam - 1e-7)[0, 0]) / 2e-7
-        lam -= stress(lam)[0, 0] / slope
-    exact = stress(lam)
+    lam, exact = equal_lateral_stretch(material, lambda lam: np.diag([lam, lam, stretch]))
     sigma = sim.particles["stress"]
     assert len(sigma) == 512
     assert abs(exact[2, 2]) > 5.0
@@ -215,13 +221,7 @@ def test_axisymmetric_uniform_compression_matches_3d_and_analytic():
     stretch = (1.0 - 0.0125) ** 4
     material = make_material(config["materials"]["m"])
 
-    def stress(lam):
-        return material.stress(np.diag([lam, stretch, lam])[None])[0]
-    lam = 1.0
-    for _ in range(60):
-        slope = (stress(lam + 1e-7)[0, 0] - stress(lam - 1e-7)[0, 0]) / 2e-7
-        lam -= stress(lam)[0, 0] / slope
-    exact = stress(lam)
+    lam, exact = equal_lateral_stretch(material, lambda lam: np.diag([lam, stretch, lam]))
     sigma = sim.particles["stress"]
     assert abs(exact[1, 1]) > 5.0
     assert np.max(np.abs(sigma - exact)) < 1e-8 * abs(exact[1, 1])
