@@ -39,7 +39,7 @@ BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: ("plane_strain", "plane_stress", "axisymmetric"), 3: ("3d",)}
 MATERIAL_MODELS = ("neo_hookean", "neo_hookean_compressible", "linear_elastic", "j2_small_strain",
                    "j2_finite_strain")
-GEOMETRY_TYPES = ("box", "ball")
+GEOMETRY_TYPES = ("box", "ball", "cylinder")
 INTEGRATORS = ("newmark", "quasi_static", "explicit", "backward_euler")
 STRESS_UPDATES = ("musl", "usl", "usf")
 AXES = ("x", "y", "z")
@@ -55,7 +55,8 @@ MATERIAL_KEYS = ("model", "density", "shear_modulus", "bulk_modulus",
 PLASTICITY_KEYS = ("yield_stress", "hardening_modulus", "softening_strain", "softening_modulus")
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "constrain")
-GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius")}
+GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius"),
+                 "cylinder": ("type", "lower", "upper", "axis", "center", "radius")}
 TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
              "stress_update")
@@ -348,7 +349,7 @@ def _validate_geometry(value, path, dim):
         _fail_missing(_join(path, "type"), _choices(GEOMETRY_TYPES))
     gtype = _enum(value["type"], _join(path, "type"), GEOMETRY_TYPES)
     sec = _Section(value, path, GEOMETRY_KEYS[gtype])
-    if gtype == "box":
+    if gtype in ("box", "cylinder"):
         lower = _float_vector(sec.required("lower", f"a list of {dim} numbers"),
                               sec.sub("lower"), dim)
         upper = _float_vector(sec.required("upper", f"a list of {dim} numbers"),
@@ -357,7 +358,16 @@ def _validate_geometry(value, path, dim):
             if not upper[i] > lower[i]:
                 _fail(f"{sec.sub('upper')}[{i}]", upper[i],
                       f"a number > {sec.sub('lower')}[{i}] = {_fmt(lower[i])}")
-        return {"type": "box", "lower": lower, "upper": upper}
+        if gtype == "box":
+            return {"type": "box", "lower": lower, "upper": upper}
+        # cylinder (3D): the part of the box within radius of the axis line through center
+        if dim != 3:
+            _fail(_join(path, "type"), gtype, "a cylinder only in 3D (use a box or a ball in 2D)")
+        axis = _enum(sec.required("axis", _choices(AXES)), sec.sub("axis"), AXES)
+        center = _float_vector(sec.required("center", "a list of 3 numbers"), sec.sub("center"), dim)
+        radius = _positive(sec.required("radius", "a positive number"), sec.sub("radius"))
+        return {"type": "cylinder", "lower": lower, "upper": upper, "axis": axis,
+                "center": center, "radius": radius}
     center = _float_vector(sec.required("center", f"a list of {dim} numbers"),
                            sec.sub("center"), dim)
     radius = _positive(sec.required("radius", "a positive number"), sec.sub("radius"))
@@ -370,7 +380,7 @@ def _check_inside_grid(geom, path, grid, dim):
         tol = BBOX_RELATIVE_TOLERANCE * (ghi[i] - glo[i])
         axis = AXES[i]
         within = f"the grid on axis {axis} ([{_fmt(glo[i])}, {_fmt(ghi[i])}])"
-        if geom["type"] == "box":
+        if geom["type"] in ("box", "cylinder"):
             if geom["lower"][i] < glo[i] - tol:
                 _fail(f"{path}.lower[{i}]", geom["lower"][i],
                       f"a number >= grid.lower[{i}] = {_fmt(glo[i])} (the body must lie "

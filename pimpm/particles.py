@@ -48,11 +48,17 @@ def _inside_geometry(points, geometry):
     if geometry["type"] == "ball":
         c = np.asarray(geometry["center"])
         return np.sum((points - c) ** 2, axis=1) <= geometry["radius"] ** 2
+    if geometry["type"] == "cylinder":
+        lo, hi = np.asarray(geometry["lower"]), np.asarray(geometry["upper"])
+        in_box = np.all((points >= lo) & (points <= hi), axis=1)
+        radial = [d for d in range(points.shape[1]) if d != "xyz".index(geometry["axis"])]
+        c = np.asarray(geometry["center"])[radial]
+        return in_box & (np.sum((points[:, radial] - c) ** 2, axis=1) <= geometry["radius"] ** 2)
     raise ValueError(f"unknown geometry type {geometry['type']!r}")
 
 
 def _bounding_box(geometry):
-    if geometry["type"] == "box":
+    if geometry["type"] in ("box", "cylinder"):
         return np.asarray(geometry["lower"], float), np.asarray(geometry["upper"], float)
     c, r = np.asarray(geometry["center"], float), float(geometry["radius"])
     return c - r, c + r

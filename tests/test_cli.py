@@ -168,12 +168,19 @@ def expected_summary(path):
             bodies[b["name"]] = math.prod(
                 round((float(geo["upper"][i]) - float(geo["lower"][i])) / h[i] * ppc[i])
                 for i in range(dim))
-        else:   # a ball: count the sub-cell lattice points inside it
+        else:   # a ball or a cylinder: count the sub-cell lattice points inside it
             axes = [float(g["lower"][i]) + (np.arange(g["cells"][i] * ppc[i]) + 0.5) * h[i] / ppc[i]
                     for i in range(dim)]
             points = np.stack([m.ravel() for m in np.meshgrid(*axes, indexing="ij")], axis=1)
-            inside = np.sum((points - np.array(geo["center"], float)) ** 2, axis=1) \
-                <= float(geo["radius"]) ** 2
+            if geo["type"] == "ball":
+                inside = np.sum((points - np.array(geo["center"], float)) ** 2, axis=1) \
+                    <= float(geo["radius"]) ** 2
+            else:
+                radial = [d for d in range(dim) if d != "xyz".index(geo["axis"])]
+                inside = np.all((points >= np.array(geo["lower"], float))
+                                & (points <= np.array(geo["upper"], float)), axis=1)
+                inside &= np.sum((points[:, radial] - np.array(geo["center"], float)[radial]) ** 2,
+                                 axis=1) <= float(geo["radius"]) ** 2
             bodies[b["name"]] = int(inside.sum())
     if "dt" not in t:           # explicit with an automatic step
         return "x".join(str(c) for c in g["cells"]), bodies, None, None

@@ -385,8 +385,8 @@ BAD = [
     ("unknown model", _set("materials.rubber.model", "mooney_rivlin"),
      ["materials.rubber.model = 'mooney_rivlin'",
       "expected one of neo_hookean, neo_hookean_compressible"]),
-    ("unknown geometry type", _set("bodies.0.geometry.type", "cylinder"),
-     ["bodies[0].geometry.type = 'cylinder'", "expected one of box, ball"]),
+    ("unknown geometry type", _set("bodies.0.geometry.type", "cone"),
+     ["bodies[0].geometry.type = 'cone'", "expected one of box, ball, cylinder"]),
     ("unknown shape functions", _set("grid.shape_functions", "quadratic"),
      ["grid.shape_functions = 'quadratic'", "expected one of linear"]),
     ("3d kinematics in 2d", _set("kinematics", "3d"),
@@ -508,3 +508,12 @@ def test_load_config_validation_error_has_file_and_line(tmp_path):
     line = BASE_YAML.splitlines().index("  dt: 0.005") + 1
     assert str(info.value) == f"{f}:{line}: time.dt = -0.005: expected a positive number"
     assert info.value.path == "time.dt"
+
+
+def test_cylinder_geometry_only_in_3d():
+    raw = base()
+    raw["bodies"][0]["geometry"] = {"type": "cylinder", "lower": [0, 0], "upper": [20, 20],
+                                    "axis": "y", "center": [0, 0], "radius": 5}
+    with pytest.raises(ConfigError) as info:
+        validate(raw)
+    assert "cylinder only in 3D" in str(info.value)
