@@ -567,6 +567,10 @@ class Simulation:
             "velocity": np.concatenate([p["v"], r["v"]]),
             "stress": np.concatenate([p["stress"], np.zeros((nr, 3, 3))]),
             "von_mises": np.concatenate([von_mises(p["stress"]), np.zeros(nr)]),
+            # sigma_1 - sigma_2 of the in-plane stress (photoelastic fringes, G&W eq. 22)
+            "principal_stress_difference": np.concatenate([np.sqrt(
+                (p["stress"][:, 0, 0] - p["stress"][:, 1, 1]) ** 2 + 4.0 * p["stress"][:, 0, 1] ** 2),
+                np.zeros(nr)]),
             "J": np.concatenate([J, np.ones(nr)]),
             "body": np.concatenate([p["body"], r["body"]]),
             "id": np.concatenate([p["id"], r["id"]]),

@@ -1,0 +1,53 @@
+#!/usr/bin/env python3
+"""Photoelastic fringe images (Guilkey & Weiss 2003, eq. 22) from a pimpm
+results.h5: F = cos(2 pi f_no (sigma_1 - sigma_2) / max(sigma_1 - sigma_2)),
+with the in-plane principal stress difference that pimpm writes as the
+particle field ``principal_stress_difference``.
+
+    python scripts/render_fringes.py OUTDIR/results.h5 --times 1.9 4.8 6.7 \\
+        --time-unit 9.8e-7 [--fringes 7] [--out fringes.png]
+
+``--time-unit`` makes the times non-dimensional (the wave transit time
+across one disk for the four-disk problem); the nearest output step is used.
+"""
+import argparse
+
+import h5py
+import numpy as np
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("results")
+    ap.add_argument("--times", type=float, nargs="+", required=True)
+    ap.add_argument("--time-unit", type=float, default=1.0)
+    ap.add_argument("--fringes", type=float, default=7.0, help="f_no of eq. 22")
+    ap.add_argument("--out", default="fringes.png")
+    args = ap.parse_args()
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    with h5py.File(args.results, "r") as f:
+        steps = sorted(f["steps"])
+        times = np.array([f["steps"][s].attrs["time"] for s in steps]) / args.time_unit
+        fig, axes = plt.subplots(len(args.times), 1, figsize=(10, 2.6 * len(args.times)), squeeze=False)
+        for ax, t in zip(axes[:, 0], args.times):
+            k = int(np.argmin(np.abs(times - t)))
+            g = f["steps"][steps[k]]["particles"]
+            x, body = g["position"][:, :2], g["body"][...]
+            diff = g["principal_stress_difference"][...]
+            material = diff > 0
+            fringe = np.cos(2 * np.pi * args.fringes * diff / max(diff.max(), 1e-300))   # eq. 22
+            ax.scatter(x[material, 0], x[material, 1], c=fringe[material], cmap="gray", s=1.5,
+                       vmin=-1, vmax=1)
+            ax.set_aspect("equal")
+            ax.set_title(f"t = {times[k]:.2f} (eq. 22, f_no = {args.fringes:g})")
+            ax.set_xticks([])
+            ax.set_yticks([])
+    fig.tight_layout()
+    fig.savefig(args.out, dpi=90)
+    print("wrote", args.out)
+
+
+if __name__ == "__main__":
+    main()
