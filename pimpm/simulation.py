@@ -302,7 +302,6 @@ class Simulation:
         if self.explicit:
             return self.advance_explicit(dt)
         t0 = wallclock.perf_counter()
-        comm, grid, p = self.comm, self.grid, self.particles
         with log_stage(self.stages["P2G"]):
             state, cons = self.prepare_step(dt)                   # steps 1-2
 
@@ -558,7 +557,7 @@ class Simulation:
 
     def particle_output(self):
         """Particle fields for output: material particles then rigid ones."""
-        p, r, dim = self.particles, self.rigid, self.dim
+        p, r = self.particles, self.rigid
         nr = len(r)
         J = np.linalg.det(p["F"])
         return {

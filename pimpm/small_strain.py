@@ -58,7 +58,6 @@ def j2_return(eps, eps_p, alpha, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0.0):
     """Radial return for von Mises plasticity with piecewise-linear isotropic
     hardening. Returns sigma, D (algorithmic tangent), eps_p_new, alpha_new,
     plastic work increment density."""
-    n = len(eps)
     eps_e = eps - eps_p
     tr = np.trace(eps_e, axis1=1, axis2=2)
     dev = eps_e - tr[:, None, None] / 3.0 * I3

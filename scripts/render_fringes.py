@@ -34,7 +34,7 @@ def main():
         for ax, t in zip(axes[:, 0], args.times):
             k = int(np.argmin(np.abs(times - t)))
             g = f["steps"][steps[k]]["particles"]
-            x, body = g["position"][:, :2], g["body"][...]
+            x = g["position"][:, :2]
             diff = g["principal_stress_difference"][...]
             material = diff > 0
             fringe = np.cos(2 * np.pi * args.fringes * diff / max(diff.max(), 1e-300))   # eq. 22

@@ -1,5 +1,4 @@
 """Shared test utilities: running scripts and pimpm under mpiexec, small configs."""
-import copy
 import os
 import shutil
 import subprocess
