@@ -287,6 +287,7 @@ class ImplicitSolver:
         F_inc, F = kin
         with self._stage("Constitutive update"):
             sigma, _ = constitutive_update(st, F, tangent=False, F_inc=F_inc)
+        st.extra["kinematics"] = (F_inc, F, sigma)      # reused by the particle update
         r = self.internal_force(sigma, F_inc) - st.external_force
         if st.dynamic:
             r += st.inertia(u_owned)

@@ -10,6 +10,16 @@ import itertools
 import numpy as np
 
 
+def tensor_product(w, dw):
+    """Weights S = prod_d w_d and gradients G_d = dw_d prod_{e != d} w_e from
+    per-axis weights and slopes (n, nn, dim)."""
+    S = np.prod(w, axis=2)
+    G = np.empty(w.shape)
+    for d in range(w.shape[2]):  # loop over dimensions only
+        G[:, :, d] = dw[:, :, d] * np.prod(np.delete(w, d, axis=2), axis=2)
+    return S, G
+
+
 class LinearShape:
     """Bilinear / trilinear tent functions (MPM intro Fig. 2-3): each particle
     touches the ``2**dim`` nodes of the cell that contains it."""
@@ -38,11 +48,7 @@ class LinearShape:
         f = frac[:, None, :]                                # (n, 1, dim)
         w = np.where(o == 1, f, 1.0 - f)                    # 1D weights (n, nn, dim)
         dw = np.where(o == 1, 1.0, -1.0) / spacing          # 1D slopes (1, nn, dim)
-        S = np.prod(w, axis=2)
-        G = np.empty(w.shape)
-        for d in range(self.dim):  # loop over dimensions only
-            others = np.prod(np.delete(w, d, axis=2), axis=2)
-            G[:, :, d] = dw[:, :, d] * others
+        S, G = tensor_product(w, dw)
         nodes = base[:, None, :] + o
         return nodes, S, G
 
@@ -108,9 +114,5 @@ class GIMPShape:
         w[outside] = 0.0
         dw[outside] = 0.0
         nodes = np.clip(nodes, 0, cells)
-        S = np.prod(w, axis=2)
-        G = np.empty(w.shape)
-        for d in range(self.dim):  # loop over dimensions only
-            others = np.prod(np.delete(w, d, axis=2), axis=2)
-            G[:, :, d] = dw[:, :, d] / spacing[d] * others
+        S, G = tensor_product(w, dw / spacing)
         return nodes, S, G

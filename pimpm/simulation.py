@@ -10,8 +10,7 @@ from petsc4py import PETSc
 
 from . import bodies as bc
 from .grid import Grid
-from .implicit import (ImplicitSolver, StepState, constitutive_update, material_update,
-                       particle_kinematics)
+from .implicit import ImplicitSolver, StepState, material_update
 from .materials import make_material, von_mises
 from .particles import ParticleSet, migrate, seed_body
 from .shape import make_shape
@@ -270,11 +269,7 @@ class Simulation:
         mass, velocity, acceleration, fext = self.nodal_state(node_index, S)
         cons = bc.build_constraints(self.grid, self.shape, self.rigid, self.rigid_bodies,
                                     self.boundary, mass, dt, self.mass_floor)
-        groups = []
-        for mi, material in enumerate(self.materials):
-            bodies_of = [b for b, m in self.body_material.items() if m == mi]
-            index = np.flatnonzero(np.isin(p["body"], bodies_of))
-            groups.append((material, index))
+        groups = self.material_groups()
         state = StepState(
             dt=dt, dynamic=self.dynamic, scheme=self.integrator, node_index=node_index, S=S, G=G,
             F_n=p["F"], volume_n=p["volume0"] * np.linalg.det(p["F"]),
@@ -351,9 +346,9 @@ class Simulation:
             local = np.where(mask, raw, 0.0).reshape(-1, self.dim).sum(axis=0)
             forces[name] = comm.allreduce(local, op=MPI.SUM)
 
-        # converged state, a_g(t+dt) from eq. 16, interpolate to particles
-        F_inc, F, _ = particle_kinematics(state, u_local)
-        sigma, _ = constitutive_update(state, F, tangent=False, F_inc=F_inc)
+        # converged state (kinematics and stress of the residual just evaluated),
+        # a_g(t+dt) from eq. 16, interpolate to particles
+        F_inc, F, sigma = state.extra["kinematics"]
         v_new, a_new = state.grid_kinematics(u)
         a_local = grid.owned_to_local(a_new)
         u_p = grid_to_particle(state.node_index, state.S, u_local)
@@ -546,10 +541,8 @@ class Simulation:
     def strain_energy(self):
         p = self.particles
         total = 0.0
-        for mi, material in enumerate(self.materials):
-            bodies_of = [b for b, m in self.body_material.items() if m == mi]
-            index = np.isin(p["body"], bodies_of)
-            if np.any(index):
+        for material, index in self.material_groups():
+            if len(index):
                 history = {k: p["h_" + k][index] for k in material.history}
                 total += float(np.sum(p["volume0"][index]
                                       * material.strain_energy(p["F"][index], history)))
