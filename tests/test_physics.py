@@ -23,36 +23,36 @@ from pimpm.materials import make_material
 from pimpm.simulation import Simulation
 
 
-def homogeneous_plane_strain(material, stretch, axis, free_axis):
-    """Cauchy stress for F = diag(l0, l1, 1) with F[axis] = stretch and the
-    other in-plane stretch chosen so that sigma[free_axis] = 0 (scalar
-    Newton with a finite-difference slope on the material model itself)."""
-    def stress(lam_free):
-        F = np.eye(3)
-        F[axis, axis] = stretch
-        F[free_axis, free_axis] = lam_free
-        return material.stress(F[None])[0]
+def stress_free_stretch(material, F_of, component):
+    """The stretch lam with sigma[component, component] = 0 for F = F_of(lam)
+    (scalar Newton with a finite-difference slope on the material model
+    itself), and the stress there."""
+    def s(lam):
+        return material.stress(F_of(lam)[None])[0][component, component]
     lam = 1.0
-    for _ in range(50):
-        s = stress(lam)[free_axis, free_axis]
-        slope = (stress(lam + 1e-7)[free_axis, free_axis] - stress(lam - 1e-7)[free_axis, free_axis]) / 2e-7
-        step = s / slope
+    for _ in range(60):
+        step = s(lam) / ((s(lam + 1e-7) - s(lam - 1e-7)) / 2e-7)
         lam -= step
         if abs(step) < 1e-15:
             break
-    return stress(lam), lam
+    return lam, material.stress(F_of(lam)[None])[0]
+
+
+def homogeneous_plane_strain(material, stretch, axis, free_axis):
+    """Cauchy stress for F = diag(l0, l1, 1) with F[axis] = stretch and the
+    other in-plane stretch chosen so that sigma[free_axis] = 0."""
+    def F_of(lam):
+        F = np.eye(3)
+        F[axis, axis] = stretch
+        F[free_axis, free_axis] = lam
+        return F
+    lam, sigma = stress_free_stretch(material, F_of, free_axis)
+    return sigma, lam
 
 
 def equal_lateral_stretch(material, F_of):
-    """The lateral stretch lam with sigma_00(F_of(lam)) = 0 (scalar Newton with
-    a finite-difference slope), and the stress there."""
-    def stress(lam):
-        return material.stress(F_of(lam)[None])[0]
-    lam = 1.0
-    for _ in range(60):
-        slope = (stress(lam + 1e-7)[0, 0] - stress(lam - 1e-7)[0, 0]) / 2e-7
-        lam -= stress(lam)[0, 0] / slope
-    return lam, stress(lam)
+    """The lateral stretch lam with sigma_00(F_of(lam)) = 0, and the stress there."""
+    return stress_free_stretch(material, F_of, 0)
 
 
 def run(sim, steps, dt):
