@@ -33,7 +33,7 @@ __all__ = ["ConfigError", "load_config", "validate"]
 
 # --------------------------------------------------------------------------- constants
 
-SHAPE_FUNCTIONS = ("linear", "gimp")
+SHAPE_FUNCTIONS = ("linear", "gimp", "bspline")
 BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
 BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: ("plane_strain", "plane_stress", "axisymmetric"), 3: ("3d",)}

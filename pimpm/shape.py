@@ -2,8 +2,8 @@
 
 A shape-function object maps particle positions to the grid nodes they touch,
 the weights ``S_ip`` and the gradients ``G_ip`` (MPM intro eq. 2-6). Every
-object exposes the same interface so that GIMP or B-splines can be added
-later with a wider ``stencil_width``.
+object exposes the same interface (linear tents, GIMP, quadratic B-splines);
+the wider ones need a DMDA ``stencil_width`` of 2.
 """
 import itertools
 
@@ -54,7 +54,7 @@ class LinearShape:
 
 
 def make_shape(name, dim):
-    shapes = {"linear": LinearShape, "gimp": GIMPShape}
+    shapes = {"linear": LinearShape, "gimp": GIMPShape, "bspline": QuadraticBSplineShape}
     if name not in shapes:
         raise ValueError(f"unknown shape functions {name!r}")
     return shapes[name](dim)
@@ -115,4 +115,68 @@ class GIMPShape:
         dw[outside] = 0.0
         nodes = np.clip(nodes, 0, cells)
         S, G = tensor_product(w, dw / spacing)
+        return nodes, S, G
+
+
+def _bspline2_1d(r):
+    """Uniform quadratic B-spline centred on a node: weight and slope (per
+    unit r) at distance r in cell units (support |r| < 3/2, C1)."""
+    a = np.abs(r)
+    w = np.where(a < 0.5, 0.75 - r ** 2, np.where(a < 1.5, 0.5 * (1.5 - a) ** 2, 0.0))
+    dw = np.where(a < 0.5, -2.0 * r, np.where(a < 1.5, -np.sign(r) * (1.5 - a), 0.0))
+    return w, dw
+
+
+class QuadraticBSplineShape:
+    """Node-centred quadratic B-splines (C1, non-negative; Steffen, Kirby &
+    Berzins 2008): no cell-crossing jump in the gradients at all, and each
+    particle touches the nearest node and its two neighbours per axis
+    (stencil width 2).
+
+    Boundary modification: within half a cell of a grid face the uniform
+    splines would need a node outside the grid. Its function is folded onto
+    the face node and its neighbour by linear extrapolation, N_0 += 2 N_-1,
+    N_1 -= N_-1 (x_-1 = 2 x_0 - x_1), which keeps partition of unity and
+    linear completeness up to the face and leaves N_0 = 1 - r, N_1 = r on
+    the first half cell: non-negative, still C1, and interpolating at the
+    face, so symmetry planes and walls constrain exactly the face nodes."""
+
+    name = "bspline"
+    stencil_width = 2
+
+    def __init__(self, dim):
+        self.dim = dim
+        self.offsets = np.array([o[::-1] for o in itertools.product((0, 1, 2), repeat=dim)],
+                                dtype=np.int64)
+        self.nodes_per_particle = len(self.offsets)
+
+    @staticmethod
+    def weights_1d(xi, cells):
+        """Per-axis nodes (n, 3), weights and slopes in cell units for
+        positions ``xi`` (n,) in cell units, boundary-modified at 0 and ``cells``."""
+        base = np.floor(xi + 0.5).astype(np.int64) - 1                 # nearest node - 1
+        nodes = base[:, None] + np.arange(3)[None, :]
+        w, dw = _bspline2_1d(xi[:, None] - nodes)
+        low = base < 0                                                 # phantom node -1 at slot 0
+        high = base + 2 > cells                                        # phantom node cells+1 at slot 2
+        for mask, phantom, face, inner in ((low, 0, 1, 2), (high, 2, 1, 0)):
+            for a in (w, dw):
+                a[mask, face] += 2.0 * a[mask, phantom]
+                a[mask, inner] -= a[mask, phantom]
+                a[mask, phantom] = 0.0
+        return np.clip(nodes, 0, cells), w, dw
+
+    def evaluate(self, x, lower, spacing, cells, half_size=None):
+        xi = (x - lower) / spacing
+        n = len(x)
+        per_axis = [self.weights_1d(xi[:, d], int(cells[d])) for d in range(self.dim)]
+        o = self.offsets
+        nodes = np.empty((n, self.nodes_per_particle, self.dim), dtype=np.int64)
+        w = np.empty((n, self.nodes_per_particle, self.dim))
+        dw = np.empty_like(w)
+        for d, (nd, wd, dwd) in enumerate(per_axis):                   # loop over dimensions only
+            nodes[:, :, d] = nd[:, o[:, d]]
+            w[:, :, d] = wd[:, o[:, d]]
+            dw[:, :, d] = dwd[:, o[:, d]] / spacing[d]
+        S, G = tensor_product(w, dw)
         return nodes, S, G

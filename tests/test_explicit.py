@@ -54,7 +54,8 @@ def vibrate(config, periods, dt=None):
 
 
 @pytest.mark.parametrize("stress_update,shape", [("musl", "linear"), ("usl", "linear"),
-                                                 ("usf", "linear"), ("musl", "gimp")])
+                                                 ("usf", "linear"), ("musl", "gimp"),
+                                                 ("musl", "bspline")])
 def test_explicit_bar_vibrates_at_the_analytic_frequency(stress_update, shape):
     sim, period, measured, energy = vibrate(bar_config("explicit", stress_update=stress_update,
                                                        shape=shape), 3)
@@ -72,7 +73,7 @@ def test_explicit_refuses_a_step_above_the_cfl_limit():
         Simulation(bar_config("explicit", dt=1.5 * limit), MPI.COMM_WORLD)
 
 
-@pytest.mark.parametrize("shape", ["linear", "gimp"])
+@pytest.mark.parametrize("shape", ["linear", "gimp", "bspline"])
 def test_newmark_conserves_energy_of_a_free_vibration(shape):
     """Trapezoidal rule (G&W eq. 14-16) at 3.7x the explicit step: total
     energy within 0.5% over 10 periods (0.34% measured), period elongation

@@ -15,7 +15,8 @@ pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
     (2, "quasi_static", "3d", "linear", "elastic"), (2, "backward_euler", "2d", "linear", "elastic"),
     (1, "newmark", "2d", "gimp", "elastic"), (2, "quasi_static", "2d", "gimp", "elastic"),
     (2, "newmark", "3d", "gimp", "elastic"), (1, "quasi_static", "2d", "linear", "j2"),
-    (2, "newmark", "2d", "gimp", "j2")]] + [
+    (2, "newmark", "2d", "gimp", "j2"), (1, "newmark", "2d", "bspline", "elastic"),
+    (3, "quasi_static", "2d", "bspline", "j2"), (2, "newmark", "3d", "bspline", "elastic")]] + [
     (1, "quasi_static", "2d", "linear", "elastic", "plane_stress"),
     (2, "newmark", "2d", "linear", "j2", "plane_stress"),
     (1, "quasi_static", "2d", "linear", "elastic", "axisymmetric"),
