@@ -113,3 +113,14 @@ def sum_by_group(values, starts):
     if len(starts) == 0:
         return values[:0]
     return np.add.reduceat(values, starts, axis=0)
+
+
+def projection_blocks(particle_mass, S, order, starts, dim):
+    """Blocks of S^T m S (the particle-mass-weighted "consistent mass" of the
+    momentum formulation's projection, Sulsky & Kaul 3.2.1), summed over the
+    particles of each footprint group, as (n_groups, nn*dim, nn*dim) with
+    rows i*dim + a and columns j*dim + b (identity in a, b)."""
+    scalar = particle_mass[:, None, None] * S[:, :, None] * S[:, None, :]     # (n, nn, nn)
+    scalar = sum_by_group(scalar[order], starts)
+    return np.einsum("gij,ab->giajb", scalar, np.eye(dim)).reshape(
+        len(scalar), S.shape[1] * dim, S.shape[1] * dim)

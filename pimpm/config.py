@@ -33,6 +33,7 @@ __all__ = ["ConfigError", "load_config", "validate"]
 
 # --------------------------------------------------------------------------- constants
 
+FORMULATIONS = ("velocity", "momentum")
 SHAPE_FUNCTIONS = ("linear", "gimp", "bspline")
 BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
 BOUNDARY_ALIASES = {"symmetry": "roller"}
@@ -59,7 +60,7 @@ GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "
                  "cylinder": ("type", "lower", "upper", "axis", "center", "radius")}
 TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
-             "stress_update")
+             "stress_update", "formulation")
 SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc")
 CONVERGENCE_KEYS = ("test", "displacement_tolerance", "energy_tolerance")
 SOLVER_PRESETS = ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free")
@@ -504,6 +505,13 @@ def _validate_time(value, path, dim):
     for key in ("cfl", "stress_update"):
         if sec.has(key) and not explicit:
             _fail(sec.sub(key), sec.data[key], "to be given only with time.integrator: explicit")
+    formulation = sec.optional("formulation")
+    formulation = "velocity" if formulation is _MISSING else _enum(
+        formulation, sec.sub("formulation"), FORMULATIONS)
+    if sec.has("formulation") and explicit:
+        _fail(sec.sub("formulation"), sec.data["formulation"],
+              "to be given only with an implicit integrator (explicit MPM uses time.stress_update; "
+              "musl is the explicit momentum formulation)")
     gravity = sec.optional("gravity")
     gravity = [0.0] * dim if gravity is _MISSING else \
         _float_vector(gravity, sec.sub("gravity"), dim)
@@ -524,7 +532,7 @@ def _validate_time(value, path, dim):
     return {"integrator": integ, "dt": dt, "end_time": end_time, "gravity": gravity,
             "dt_initial": dt_initial, "ramp_factor": ramp, "max_cuts": cuts,
             "easy_newton_iterations": easy, "max_particle_displacement": limit,
-            "cfl": cfl, "stress_update": update}
+            "cfl": cfl, "stress_update": update, "formulation": formulation}
 
 
 def _petsc_value(value, path):

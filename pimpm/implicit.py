@@ -20,7 +20,7 @@ from . import assembly, smallmat
 from .convergence import GuilkeyWeissTest
 from .stages import log_stage
 from .linear import FALLBACK_OPTIONS, PRESETS, FallbackKSP, TangentShell, rigid_body_near_null_space
-from .transfer import gradient_at_particles, grid_to_particle, scatter
+from .transfer import gradient_at_particles, grid_to_particle, particle_to_grid, scatter
 
 
 @dataclass
@@ -50,6 +50,7 @@ class StepState:
     plane_stress: bool = False    # solve F33 so that sigma33 = 0 at every particle
     radius: np.ndarray = None     # axisymmetric: particle radius at t (None otherwise)
     history: dict = field(default_factory=dict)   # material history at t (per particle)
+    particle_mass: np.ndarray = None  # (n,) particle masses (momentum formulation)
 
     @property
     def mass_coefficient(self):
@@ -84,6 +85,27 @@ def particle_kinematics(state, u_local):
     dim = state.G.shape[2]
     J_inc = smallmat.det(F_inc[:, :dim, :dim])
     return F_inc, F, int(np.sum(~(J_inc > 0.0)))
+
+
+def project_displacement(state, grid, u_owned, u_local):
+    """Momentum formulation (Sulsky & Kaul 3.2.1): the particles are deformed
+    by the mass-weighted projection of their own displacements,
+
+        u~_i = sum_p m_p N_ip du_p / m_i,   du_p = sum_j N_jp u_j,
+
+    the displacement form of eq. 3.2.7 (the grid velocity remapped from the
+    updated particle velocities). A node that a particle has only just
+    entered gets that particle's displacement instead of an unbalanced
+    force / tiny mass; prescribed dofs keep their values. Linear in u:
+    u~ = R u with R = M^-1 S^T m S (rows of prescribed dofs: identity).
+    Returns the owned and ghosted-local u~. Collective."""
+    du = grid_to_particle(state.node_index, state.S, u_local)
+    weighted = particle_to_grid(state.node_index, state.S, state.particle_mass[:, None] * du,
+                                grid.n_local_nodes)
+    mass = state.mass
+    projected = np.where(mass > 0.0, grid.sum_to_owned(weighted) / np.where(mass > 0.0, mass, 1.0), 0.0)
+    projected[state.fixed] = u_owned[state.fixed]
+    return projected, grid.owned_to_local(projected)
 
 
 def material_update(material, F, history, tangent, plane_stress=False, F_inc=None):
@@ -151,8 +173,10 @@ class ImplicitSolver:
     from :meth:`unconstrained_residual`, which is not scaled.
     """
 
-    def __init__(self, grid, solver_config, default_options, residual_scale, stages=None):
+    def __init__(self, grid, solver_config, default_options, residual_scale, stages=None,
+                 formulation="velocity"):
         self.grid = grid
+        self.momentum = formulation == "momentum"
         self.da = grid.da
         self.state = None
         self.stages = stages or {}
@@ -162,6 +186,10 @@ class ImplicitSolver:
         if self.preset not in PRESETS:
             raise ValueError(f"-pimpm_preset {self.preset}: expected one of {', '.join(PRESETS)}")
         preset_options, iterative, spd, self.matrix_free = PRESETS[self.preset]
+        if self.momentum and spd:
+            raise ValueError(f"solver.preset = {self.preset!r}: expected a preset for non-symmetric "
+                             "tangents (gmres-gamg, mumps, jfnk or matrix-free) with "
+                             "time.formulation: momentum (its tangent K R is not symmetric)")
         self.fallback = None
         use_fallback = iterative and not self.matrix_free and db.getBool(
             "pimpm_fallback", solver_config["fallback"])
@@ -191,6 +219,18 @@ class ImplicitSolver:
             self.J = PETSc.Mat().createPython(((n_local, n_global), (n_local, n_global)),
                                               context=self.shell, comm=comm)
             self.J.setUp()
+        elif self.momentum:
+            # Jacobian M c + K R: K and R on the DMDA pattern, their product
+            # on its own (wider) pattern, fixed once here from the full stencil
+            self.shell = None
+            self.K = self.da.createMat()
+            self.K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+            self.projection = self.da.createMat()
+            self.projection.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+            self.projection.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+            self.J = self.K.matMult(self.projection)
+            if iterative:
+                self.J.setNearNullSpace(rigid_body_near_null_space(grid))
         else:
             self.shell = None
             self.J = self.da.createMat()
@@ -232,6 +272,9 @@ class ImplicitSolver:
             self.fallback.direct.destroy()
         for obj in (self.snes, self.J, self.X, self.R, self.diag):
             obj.destroy()
+        if self.momentum and not self.matrix_free:
+            self.K.destroy()
+            self.projection.destroy()
 
     def describe(self):
         """One line naming the solver (for the run summary)."""
@@ -261,10 +304,17 @@ class ImplicitSolver:
             pairs[:, :, 0] += assembly.hoop_force_pairs(sigma, F_inc, st.S, st.volume_n, st.radius)
         return self.grid.sum_to_owned(scatter(st.node_index, pairs, self.grid.n_local_nodes))
 
-    def _kinematics(self, u_local):
+    def kinematic_displacement(self, u_owned, u_local):
+        """The ghosted-local displacement that deforms the particles: u itself
+        (velocity formulation) or its projection R u (momentum formulation)."""
+        if not self.momentum:
+            return u_local
+        return project_displacement(self.state, self.grid, u_owned, u_local)[1]
+
+    def _kinematics(self, u_owned, u_local):
         """Particle kinematics, or None on every rank if any rank has an
         inverted particle (collective, so that no rank is left in a sum)."""
-        F_inc, F, n_inverted = particle_kinematics(self.state, u_local)
+        F_inc, F, n_inverted = particle_kinematics(self.state, self.kinematic_displacement(u_owned, u_local))
         if self.grid.comm.allreduce(n_inverted) > 0:
             self.inverted = True
             return None
@@ -274,14 +324,15 @@ class ImplicitSolver:
         """True on every rank if the displacement ``u_owned`` inverts a
         particle anywhere. Collective."""
         self.state = state
-        _, _, n_inverted = particle_kinematics(state, self.grid.owned_to_local(u_owned))
+        u_local = self.kinematic_displacement(u_owned, self.grid.owned_to_local(u_owned))
+        _, _, n_inverted = particle_kinematics(state, u_local)
         return self.grid.comm.allreduce(n_inverted) > 0
 
     def unconstrained_residual(self, u_owned, u_local):
         """-Q of G&W step 3 before constraints: Fint + M a - Fext (owned
         dofs, in force units), or None if a particle inverted."""
         st = self.state
-        kin = self._kinematics(u_local)
+        kin = self._kinematics(u_owned, u_local)
         if kin is None:
             return None
         F_inc, F = kin
@@ -316,18 +367,21 @@ class ImplicitSolver:
         st = self.state
         grid = self.grid
         u_local = grid.vec_to_local(X)
-        kin = self._kinematics(u_local)
+        kin = self._kinematics(X.getArray(readonly=True), u_local)
         if self.matrix_free:
             if kin is not None:
                 with self._stage("Constitutive update"):
                     sigma, c = constitutive_update(st, kin[1], tangent=True, F_inc=kin[0])
-                self.shell.update(st, sigma, c, kin[0], self.residual_scale)
+                project = (lambda v: project_displacement(st, grid, v, grid.owned_to_local(v))) \
+                    if self.momentum else None
+                self.shell.update(st, sigma, c, kin[0], self.residual_scale, project)
             P.assemble()
             if J != P:
                 J.assemble()
             return
+        K = self.K if self.momentum else P
         with self._stage("Assembly"):
-            P.zeroEntries()
+            K.zeroEntries()
         if kin is not None and len(kin[1]):
             F_inc, F = kin
             with self._stage("Constitutive update"):
@@ -338,10 +392,13 @@ class ImplicitSolver:
                     Ke += assembly.hoop_tangents(sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius)
                 Ke = assembly.sum_by_group(Ke[st.group_order], st.group_starts)
                 nodes = st.group_nodes.astype(PETSc.IntType)
-                P.setValuesBlockedLocalRCV(nodes, nodes, Ke.reshape(len(nodes), -1),
+                K.setValuesBlockedLocalRCV(nodes, nodes, Ke.reshape(len(nodes), -1),
                                            addv=PETSc.InsertMode.ADD_VALUES)
         with self._stage("Assembly"):
-            P.assemble()
+            K.assemble()
+            if self.momentum:
+                self._assemble_projection()
+                K.matMult(self.projection, result=P)        # d Fint / du = K R
             if st.dynamic:
                 self.diag.getArray()[:] = st.mass_coefficient * st.mass
                 P.setDiagonal(self.diag, addv=PETSc.InsertMode.ADD_VALUES)
@@ -350,6 +407,24 @@ class ImplicitSolver:
             P.scale(1.0 / self.residual_scale)
             if J != P:
                 J.assemble()
+
+    def _assemble_projection(self):
+        """R = M^-1 S^T m S with identity rows at prescribed dofs (the
+        derivative of :func:`project_displacement`)."""
+        st, R = self.state, self.projection
+        R.zeroEntries()
+        if len(st.particle_mass):
+            blocks = assembly.projection_blocks(st.particle_mass, st.S, st.group_order,
+                                                st.group_starts, self.grid.dim)
+            nodes = st.group_nodes.astype(PETSc.IntType)
+            R.setValuesBlockedLocalRCV(nodes, nodes, blocks.reshape(len(nodes), -1),
+                                       addv=PETSc.InsertMode.ADD_VALUES)
+        R.assemble()
+        inverse_mass = self.diag.getArray()
+        inverse_mass[:] = np.where(st.mass > 0.0, 1.0 / np.where(st.mass > 0.0, st.mass, 1.0), 0.0)
+        R.diagonalScale(L=self.diag)
+        rows = (np.nonzero(st.fixed)[0] + self.row_offset).astype(PETSc.IntType)
+        R.zeroRows(rows, diag=1.0)
 
     # ----------------------------------------------------------------- solve
     def solve(self, state, initial_guess):

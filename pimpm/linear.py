@@ -110,9 +110,12 @@ class TangentShell:
         self.g = None           # (n, nn, dim) current gradients
         self.v = None           # (n,) current volumes
         self.scale = 1.0        # residual scale (dimensionless residual)
+        self.project = None     # momentum formulation: x -> R x
 
-    def update(self, state, sigma, c, F_inc, scale):
+    def update(self, state, sigma, c, F_inc, scale, project=None):
+        """``project`` (momentum formulation): owned u -> (owned, local) R u."""
         n, nn, dim = state.G.shape
+        self.project = project
         self.state = state
         self.scale = scale
         self.g = assembly.current_gradients(F_inc, state.G)
@@ -125,7 +128,8 @@ class TangentShell:
         xs = x.getArray(readonly=True).copy()
         fixed = st.fixed
         xs_free = np.where(fixed, 0.0, xs)
-        x_local = grid.owned_to_local(xs_free)
+        # K R x in the momentum formulation (prescribed rows of R x stay 0)
+        x_local = grid.owned_to_local(xs_free) if self.project is None else self.project(xs_free)[1]
         if len(self.v):
             H = gradient_at_particles(st.node_index, self.g, x_local)      # (n, dim, dim)
             stress_rate = np.einsum("pacbd,pbd->pac", self.a, H)
@@ -150,6 +154,11 @@ class TangentShell:
         else:
             local = np.zeros((grid.n_local_nodes, dim))
         out = grid.sum_to_owned(local)
+        if self.project is not None and len(out):
+            # momentum formulation: diag(K) diag(R), a Jacobi approximation of diag(K R)
+            weights = scatter(st.node_index, st.particle_mass[:, None] * st.S**2, grid.n_local_nodes)
+            r_diag = grid.sum_to_owned(np.repeat(weights[:, None], dim, axis=1))
+            out *= np.where(st.mass > 0.0, r_diag / np.where(st.mass > 0.0, st.mass, 1.0), 1.0)
         if st.dynamic:
             out += st.mass_coefficient * st.mass
         out[st.fixed] = st.constraint_scale

@@ -129,7 +129,8 @@ class Simulation:
                              "kinematics axisymmetric (the shell has no hoop terms yet)")
         try:
             self.solver = ImplicitSolver(self.grid, config["solver"], DEFAULT_SOLVER_OPTIONS,
-                                         residual_scale(config, self.materials), self.stages)
+                                         residual_scale(config, self.materials), self.stages,
+                                         formulation=config["time"]["formulation"])
         except (PETSc.Error, ValueError) as err:
             raise SetupError(diagnose_solver_options(config, err)) from None
 
@@ -278,6 +279,7 @@ class Simulation:
             mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
             history=self.particle_history(), plane_stress=self.plane_stress,
             radius=p["x"][:, 0].copy() if self.axisymmetric else None,
+            particle_mass=p["mass"],
             fixed=cons.fixed, fixed_value=cons.value, constraint_scale=self.constraint_scale(dt))
         return state, cons
 
