@@ -51,7 +51,7 @@ def rigid_body_touch(grid, shape, positions, half_size, constrained_axes):
 
 
 def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass, dt,
-                      mass_floor=0.0):
+                      mass_floor=0.0, stiffness_weight=None):
     """Prescribed dofs and values for one step.
 
     rigid_bodies: list of (body index, name, velocity, constrained axes).
@@ -59,6 +59,11 @@ def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass
     mass_floor: nodes with no more mass than this count as massless (a node
     at the very edge of a GIMP particle domain gets ~1e-30 of a particle's
     mass and no stiffness to speak of).
+    stiffness_weight: if given (owned dofs), a node also needs no more than
+    ``mass_floor`` of it to count as massless: a particle lying exactly on a
+    cell face gives the node across the face zero mass but a full
+    gradient, so that node still has stiffness and must stay free (fixing
+    it would strain the particle).
     Order of precedence: grid faces > rigid bodies > massless nodes.
     """
     n = len(mass)
@@ -81,5 +86,7 @@ def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass
     for mask in body_dofs.values():
         mask[faces] = False
     massless = (mass <= mass_floor) & ~fixed
+    if stiffness_weight is not None:
+        massless &= stiffness_weight <= mass_floor
     fixed |= massless
     return Constraints(fixed=fixed, value=value, body_dofs=body_dofs)

@@ -51,6 +51,7 @@ class StepState:
     radius: np.ndarray = None     # axisymmetric: particle radius at t (None otherwise)
     history: dict = field(default_factory=dict)   # material history at t (per particle)
     particle_mass: np.ndarray = None  # (n,) particle masses (momentum formulation)
+    projection_floor: float = 0.0     # nodes with no more mass keep their own u (momentum formulation)
 
     @property
     def mass_coefficient(self):
@@ -67,6 +68,16 @@ class StepState:
         if self.scheme == "backward_euler":
             return u / dt, (u / dt - v) / dt
         return u / dt, np.zeros_like(u)
+
+    def free_flight(self):
+        """The part of u set by the grid state at t alone (owned dofs): u with
+        a(t+dt) = 0 for the trapezoidal rule, dt v(t) for backward Euler,
+        nothing in quasi-statics."""
+        if self.scheme == "newmark":
+            return self.dt * self.velocity + 0.25 * self.dt**2 * self.acceleration
+        if self.scheme == "backward_euler":
+            return self.dt * self.velocity
+        return np.zeros_like(self.velocity)
 
     def inertia(self, u):
         """M a(t+dt) as a function of u (G&W eq. 16 for the trapezoidal rule)."""
@@ -87,25 +98,43 @@ def particle_kinematics(state, u_local):
     return F_inc, F, int(np.sum(~(J_inc > 0.0)))
 
 
-def project_displacement(state, grid, u_owned, u_local):
+def project_displacement(state, grid, u_owned, u_local, base=None):
     """Momentum formulation (Sulsky & Kaul 3.2.1): the particles are deformed
-    by the mass-weighted projection of their own displacements,
+    by the mass-weighted projection of the particle displacements,
 
-        u~_i = sum_p m_p N_ip du_p / m_i,   du_p = sum_j N_jp u_j,
+        u~_i = u0_i + sum_p m_p N_ip du_p / m_i,   du_p = sum_j N_jp (u_j - u0_j),
 
-    the displacement form of eq. 3.2.7 (the grid velocity remapped from the
-    updated particle velocities). A node that a particle has only just
-    entered gets that particle's displacement instead of an unbalanced
-    force / tiny mass; prescribed dofs keep their values. Linear in u:
-    u~ = R u with R = M^-1 S^T m S (rows of prescribed dofs: identity).
-    Returns the owned and ghosted-local u~. Collective."""
+    the displacement form of eq. 3.2.7: the grid velocity remapped from the
+    updated particle velocities v_p + dt sum_i N_ip a_i (eq. 3.2.6), whose
+    old part m_p v_p maps back to the grid velocity of eq. 3.2.3 unchanged.
+    ``base`` = (owned, local) u0 is that old part (dt v_g + dt^2/4 a_g for
+    the trapezoidal rule, dt v_g for backward Euler, 0 in quasi-statics);
+    None projects u itself (the linear map R of the Jacobian). A node that
+    a particle has only just entered gets that particle's displacement
+    instead of an unbalanced force over a tiny mass. Prescribed dofs, and
+    nodes with no mass to speak of (a particle exactly on a cell face: the
+    projection is 0/0), keep their own values (rows of R: identity).
+    Returns owned and ghosted-local u~. Collective."""
+    if base is not None:
+        u_owned, u_local = u_owned - base[0], u_local - base[1]
     du = grid_to_particle(state.node_index, state.S, u_local)
     weighted = particle_to_grid(state.node_index, state.S, state.particle_mass[:, None] * du,
                                 grid.n_local_nodes)
-    mass = state.mass
-    projected = np.where(mass > 0.0, grid.sum_to_owned(weighted) / np.where(mass > 0.0, mass, 1.0), 0.0)
-    projected[state.fixed] = u_owned[state.fixed]
+    keep = own_value_dofs(state)
+    projected = grid.sum_to_owned(weighted) / np.where(keep, 1.0, state.mass)
+    projected[keep] = u_owned[keep]
+    if base is not None:
+        projected += base[0]
     return projected, grid.owned_to_local(projected)
+
+
+def own_value_dofs(state):
+    """Owned dofs that the momentum formulation's projection leaves alone:
+    prescribed ones and those of nodes with (next to) no mass. A particle
+    within round-off of a cell face gives the node across it a mass of
+    ~1e-16 m_p made of round-off: projecting onto it would divide noise by
+    noise (and leave a numerically zero Jacobian column)."""
+    return state.fixed | ~(state.mass > state.projection_floor)
 
 
 def material_update(material, F, history, tangent, plane_stress=False, F_inc=None):
@@ -309,7 +338,11 @@ class ImplicitSolver:
         (velocity formulation) or its projection R u (momentum formulation)."""
         if not self.momentum:
             return u_local
-        return project_displacement(self.state, self.grid, u_owned, u_local)[1]
+        st = self.state
+        if "projection_base" not in st.extra:
+            base = st.free_flight()
+            st.extra["projection_base"] = (base, self.grid.owned_to_local(base))
+        return project_displacement(st, self.grid, u_owned, u_local, st.extra["projection_base"])[1]
 
     def _kinematics(self, u_owned, u_local):
         """Particle kinematics, or None on every rank if any rank has an
@@ -409,8 +442,8 @@ class ImplicitSolver:
                 J.assemble()
 
     def _assemble_projection(self):
-        """R = M^-1 S^T m S with identity rows at prescribed dofs (the
-        derivative of :func:`project_displacement`)."""
+        """R = M^-1 S^T m S with identity rows at prescribed and massless
+        dofs (the derivative of :func:`project_displacement`)."""
         st, R = self.state, self.projection
         R.zeroEntries()
         if len(st.particle_mass):
@@ -420,10 +453,10 @@ class ImplicitSolver:
             R.setValuesBlockedLocalRCV(nodes, nodes, blocks.reshape(len(nodes), -1),
                                        addv=PETSc.InsertMode.ADD_VALUES)
         R.assemble()
-        inverse_mass = self.diag.getArray()
-        inverse_mass[:] = np.where(st.mass > 0.0, 1.0 / np.where(st.mass > 0.0, st.mass, 1.0), 0.0)
+        keep = own_value_dofs(st)
+        self.diag.getArray()[:] = np.where(keep, 0.0, 1.0 / np.where(keep, 1.0, st.mass))
         R.diagonalScale(L=self.diag)
-        rows = (np.nonzero(st.fixed)[0] + self.row_offset).astype(PETSc.IntType)
+        rows = (np.nonzero(keep)[0] + self.row_offset).astype(PETSc.IntType)
         R.zeroRows(rows, diag=1.0)
 
     # ----------------------------------------------------------------- solve

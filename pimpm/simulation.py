@@ -268,8 +268,12 @@ class Simulation:
         p = self.particles
         node_index, S, G, (order, starts) = self.footprint()
         mass, velocity, acceleration, fext = self.nodal_state(node_index, S)
+        # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
+        weight = self.particles["mass"][:, None] * np.sum((G * self.grid.spacing) ** 2, axis=2)
+        stiffness_weight = self.grid.sum_to_owned(np.repeat(
+            scatter(node_index, weight, self.grid.n_local_nodes)[:, None], self.dim, axis=1))
         cons = bc.build_constraints(self.grid, self.shape, self.rigid, self.rigid_bodies,
-                                    self.boundary, mass, dt, self.mass_floor)
+                                    self.boundary, mass, dt, self.mass_floor, stiffness_weight)
         groups = self.material_groups()
         state = StepState(
             dt=dt, dynamic=self.dynamic, scheme=self.integrator, node_index=node_index, S=S, G=G,
@@ -279,7 +283,7 @@ class Simulation:
             mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
             history=self.particle_history(), plane_stress=self.plane_stress,
             radius=p["x"][:, 0].copy() if self.axisymmetric else None,
-            particle_mass=p["mass"],
+            particle_mass=p["mass"], projection_floor=1e4 * self.mass_floor,
             fixed=cons.fixed, fixed_value=cons.value, constraint_scale=self.constraint_scale(dt))
         return state, cons
 

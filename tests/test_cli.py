@@ -324,6 +324,10 @@ BAD_INPUTS = {
     "command-line PETSc option with a bad value": (
         None, yaml_case(lambda cfg: None, "-ksp_type", "nonsense"),
         ["ksp_type", "nonsense"]),
+    "momentum formulation with a symmetric solver": (
+        None, yaml_case(lambda cfg: cfg["time"].update(formulation="momentum"),
+                        "-pimpm_preset", "cg-gamg"),
+        ["cg-gamg", "time.formulation: momentum", "gmres-gamg"]),
     "output directory cannot be created": (
         None, yaml_case(set_key(["output"], {"directory": "/dev/null/sub"})),
         ["output.directory", "/dev/null/sub"]),

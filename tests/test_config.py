@@ -92,7 +92,8 @@ def test_base_config_normalizes_with_defaults():
     assert cfg["time"] == {"integrator": "quasi_static", "dt": 0.005, "end_time": 0.2,
                            "gravity": [0.0, 0.0], "dt_initial": 0.005, "ramp_factor": 1.2,
                            "max_cuts": 4, "easy_newton_iterations": 6,
-                           "max_particle_displacement": None, "cfl": 0.5, "stress_update": "musl"}
+                           "max_particle_displacement": None, "cfl": 0.5, "stress_update": "musl",
+                           "formulation": "velocity"}
     assert cfg["solver"] == {"preset": "mumps", "fallback": True,
                              "convergence": {"test": "petsc", "displacement_tolerance": 1e-6,
                                              "energy_tolerance": 1e-12},
@@ -438,6 +439,11 @@ BAD = [
     ("unknown stress update", _set("time", {"integrator": "explicit", "end_time": 1.0,
                                             "stress_update": "mixed"}),
      ["time.stress_update = 'mixed'", "musl", "usl", "usf"]),
+    ("unknown formulation", _set("time.formulation", "energy"),
+     ["time.formulation = 'energy'", "velocity", "momentum"]),
+    ("formulation with explicit", _set("time", {"integrator": "explicit", "end_time": 1.0,
+                                                "formulation": "momentum"}),
+     ["time.formulation = 'momentum'", "implicit integrator", "musl"]),
     ("zero particle displacement limit", _set("time.max_particle_displacement", 0),
      ["time.max_particle_displacement = 0", "positive"]),
 ]
