@@ -512,6 +512,11 @@ def _validate_time(value, path, dim):
         _fail(sec.sub("formulation"), sec.data["formulation"],
               "to be given only with an implicit integrator (explicit MPM uses time.stress_update; "
               "musl is the explicit momentum formulation)")
+    if formulation == "momentum" and integ == "quasi_static":
+        _fail(sec.sub("formulation"), sec.data["formulation"],
+              "'velocity' with time.integrator: quasi_static (the momentum formulation needs "
+              "inertia: without the mass term its tangent K R is singular wherever the "
+              "particles do not determine the nodal values)")
     gravity = sec.optional("gravity")
     gravity = [0.0] * dim if gravity is _MISSING else \
         _float_vector(gravity, sec.sub("gravity"), dim)

@@ -468,8 +468,16 @@ class ImplicitSolver:
         fallbacks_before = self.fallback.fallbacks if self.fallback else 0
         self.X.getArray()[:] = initial_guess
         self.snes.setConvergenceHistory(length=1000, reset=True)
+        petsc_error = None
         with self._stage("Solve"):
-            self.snes.solve(None, self.X)
+            try:
+                self.snes.solve(None, self.X)
+            except PETSc.Error as err:
+                # e.g. MUMPS solving with a factorization that failed on a
+                # singular tangent: a failed step, cut and retried like the
+                # others, after dropping the preconditioner's factors
+                petsc_error = err
+                self.snes.getKSP().getPC().reset()
         reason = self.snes.getConvergedReason()
         norms, lits = self.snes.getConvergenceHistory()
         its = self.snes.getIterationNumber()
@@ -479,10 +487,13 @@ class ImplicitSolver:
         # residual too, so backtracks cannot be counted this way (-1).
         mf = PETSc.Options().hasName("snes_mf_operator") or "snes_mf_operator" in self.options
         extra = -1 if mf else self.residual_evaluations - 1 - its
+        if petsc_error is not None:
+            reason = min(int(reason), -1)
         info = {
             "reason": int(reason),
-            "reason_name": _reason_name(reason),
-            "converged": reason > 0,
+            "reason_name": (_reason_name(reason) if petsc_error is None else
+                            f"PETSc error {petsc_error.ierr} in the linear solve (singular tangent?)"),
+            "converged": reason > 0 and petsc_error is None,
             "newton_iterations": its,
             "linear_iterations": linear,
             "backtracks": int(extra) if extra < 0 else max(0, int(extra)),

@@ -444,6 +444,10 @@ BAD = [
     ("formulation with explicit", _set("time", {"integrator": "explicit", "end_time": 1.0,
                                                 "formulation": "momentum"}),
      ["time.formulation = 'momentum'", "implicit integrator", "musl"]),
+    ("momentum formulation in quasi-statics", _set("time", {"integrator": "quasi_static", "dt": 0.1,
+                                                            "end_time": 1.0,
+                                                            "formulation": "momentum"}),
+     ["time.formulation = 'momentum'", "quasi_static", "inertia"]),
     ("zero particle displacement limit", _set("time.max_particle_displacement", 0),
      ["time.max_particle_displacement = 0", "positive"]),
 ]
