@@ -60,7 +60,8 @@ def summary(sim, config):
         lines.append(f"  time      explicit, automatic dt = {t['cfl']:g} x CFL step "
                      f"(now {t['cfl'] * dt_explicit:.3g}), end {t['end_time']:g}")
     else:
-        lines.append(f"  time      {t['integrator']}, dt {t['dt']:g} ({t['dt'] / dt_explicit:.3g} x "
+        scheme = t["integrator"] + (" (momentum formulation)" if t["formulation"] == "momentum" else "")
+        lines.append(f"  time      {scheme}, dt {t['dt']:g} ({t['dt'] / dt_explicit:.3g} x "
                      f"explicit CFL step {dt_explicit:.3g}), end {t['end_time']:g}, "
                      f"{len(steps)} steps")
     lines.append(f"  output    {config['output']['directory']} every {config['output']['every']} steps")
