@@ -16,7 +16,7 @@ from .particles import ParticleSet, migrate, seed_body
 from .shape import make_shape
 from .stages import log_stage, log_stages
 from . import smallmat
-from .assembly import deformation_increment, internal_force_pairs
+from .assembly import deformation_increment, hoop_force_pairs, internal_force_pairs
 from .transfer import gradient_at_particles, grid_to_particle, particle_to_grid, scatter
 
 
@@ -119,9 +119,6 @@ class Simulation:
         self.solver = None
         self.last_grid = None
         if self.explicit:
-            if self.axisymmetric:
-                raise SetupError("kinematics = 'axisymmetric': expected an implicit integrator "
-                                 "(explicit axisymmetric MPM is not implemented yet)")
             self._check_explicit_time_step()
             return
         if self.axisymmetric and config["solver"]["preset"] == "matrix-free":
@@ -422,12 +419,14 @@ class Simulation:
             groups.append((material, np.flatnonzero(np.isin(p["body"], bodies_of))))
         return groups
 
-    def update_stress_explicit(self, node_index, G, v_local, dt):
+    def update_stress_explicit(self, node_index, S, G, v_local, dt):
         """F(t+dt) = (1 + dt grad v) F(t) (MPM intro eq. 13-14) and the
-        stress of every particle."""
+        stress of every particle; axisymmetric: hoop stretch 1 + dt v_r / r."""
         p = self.particles
         L = gradient_at_particles(node_index, G, v_local)
         F_inc = deformation_increment(dt * L)
+        if self.axisymmetric:
+            F_inc[:, 2, 2] = 1.0 + dt * grid_to_particle(node_index, S, v_local)[:, 0] / p["x"][:, 0]
         F = np.matmul(F_inc, p["F"])
         if len(F) and not np.all(smallmat.det(F_inc[:, :self.dim, :self.dim]) > 0):
             return False
@@ -447,8 +446,8 @@ class Simulation:
             p["h_" + name] = values
         return True
 
-    def _explicit_stress(self, node_index, G, v_local, dt, saved):
-        ok = self.update_stress_explicit(node_index, G, v_local, dt)
+    def _explicit_stress(self, node_index, S, G, v_local, dt, saved):
+        ok = self.update_stress_explicit(node_index, S, G, v_local, dt)
         if self.comm.allreduce(int(not ok)):
             self.particles.fields.update(saved)
             raise StepFailed(f"a particle inverted at step {self.step_index + 1} "
@@ -469,9 +468,13 @@ class Simulation:
             update = self.config["time"]["stress_update"]
             saved = {k: p[k] for k in ["F", "stress"] + ["h_" + n for n in self.history_fields()]}
             if update == "usf":                                   # stress from the velocity at t
-                self._explicit_stress(node_index, G, grid.owned_to_local(velocity), dt, saved)
-            volume = p["volume0"] * smallmat.det(p["F"][:, :dim, :dim]) if len(p["F"]) else np.zeros(0)
+                self._explicit_stress(node_index, S, G, grid.owned_to_local(velocity), dt, saved)
+            # current volume: full det F (thickness in plane stress, hoop in axisymmetry)
+            volume = p["volume0"] * smallmat.det(p["F"]) if len(p["F"]) else np.zeros(0)
             pairs = internal_force_pairs(p["stress"][:, :dim, :dim], G, volume)   # eq. 6
+            if self.axisymmetric:                                 # hoop term sigma_thth N_i / r
+                pairs[:, :, 0] += hoop_force_pairs(p["stress"], np.broadcast_to(np.eye(3), p["F"].shape),
+                                                   S, volume, p["x"][:, 0])
             fint = grid.sum_to_owned(scatter(node_index, pairs, grid.n_local_nodes))
         with log_stage(self.stages["G2P"]):
             has_mass = mass > self.mass_floor
@@ -495,7 +498,7 @@ class Simulation:
                 raise StepFailed(f"particles would leave the grid at step {self.step_index + 1} "
                                  f"(t = {self.time + dt:.6g}); enlarge grid.lower/upper")
             if update == "usl":                       # stress from the new grid velocity
-                self._explicit_stress(node_index, G, v_local, dt, saved)
+                self._explicit_stress(node_index, S, G, v_local, dt, saved)
             elif update == "musl":
                 # modified USL: the velocity gradient comes from the updated
                 # particle momenta mapped back to the grid, which keeps nodes
@@ -505,7 +508,7 @@ class Simulation:
                                                               grid.n_local_nodes))
                 remapped = np.where(has_mass, momentum / np.where(has_mass, mass, 1.0), 0.0)
                 remapped = np.where(cons.fixed, cons.value / dt, remapped)
-                self._explicit_stress(node_index, G, grid.owned_to_local(remapped), dt, saved)
+                self._explicit_stress(node_index, S, G, grid.owned_to_local(remapped), dt, saved)
             p["v"], p["x"] = new_v, new_x
             p["a"] = np.zeros_like(new_v)
             self.rigid["x"] = new_rigid_x
