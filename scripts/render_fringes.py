@@ -4,8 +4,11 @@ results.h5: F = cos(2 pi f_no (sigma_1 - sigma_2) / max(sigma_1 - sigma_2)),
 with the in-plane principal stress difference that pimpm writes as the
 particle field ``principal_stress_difference``.
 
-    python scripts/render_fringes.py OUTDIR/results.h5 --times 1.9 4.8 6.7 \\
-        --time-unit 9.8e-7 [--fringes 7] [--out fringes.png]
+    python scripts/render_fringes.py OUTDIR/results.h5 [OUTDIR2/results.h5 ...] \\
+        --times 1.9 4.8 6.7 --time-unit 9.8e-7 [--labels implicit explicit] \\
+        [--fringes 7] [--marker-size 1.5] [--out fringes.png]
+
+Several results files are drawn side by side (one column each).
 
 ``--time-unit`` makes the times non-dimensional (the wave transit time
 across one disk for the four-disk problem); the nearest output step is used.
@@ -18,7 +21,9 @@ import numpy as np
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("results")
+    ap.add_argument("results", nargs="+")
+    ap.add_argument("--labels", nargs="+", help="one title per results file")
+    ap.add_argument("--marker-size", type=float, default=1.5)
     ap.add_argument("--times", type=float, nargs="+", required=True)
     ap.add_argument("--time-unit", type=float, default=1.0)
     ap.add_argument("--fringes", type=float, default=7.0, help="f_no of eq. 22")
@@ -27,23 +32,30 @@ def main():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    with h5py.File(args.results, "r") as f:
-        steps = sorted(f["steps"])
-        times = np.array([f["steps"][s].attrs["time"] for s in steps]) / args.time_unit
-        fig, axes = plt.subplots(len(args.times), 1, figsize=(10, 2.6 * len(args.times)), squeeze=False)
-        for ax, t in zip(axes[:, 0], args.times):
-            k = int(np.argmin(np.abs(times - t)))
-            g = f["steps"][steps[k]]["particles"]
-            x = g["position"][:, :2]
-            diff = g["principal_stress_difference"][...]
-            material = diff > 0
-            fringe = np.cos(2 * np.pi * args.fringes * diff / max(diff.max(), 1e-300))   # eq. 22
-            ax.scatter(x[material, 0], x[material, 1], c=fringe[material], cmap="gray", s=1.5,
-                       vmin=-1, vmax=1)
-            ax.set_aspect("equal")
-            ax.set_title(f"t = {times[k]:.2f} (eq. 22, f_no = {args.fringes:g})")
-            ax.set_xticks([])
-            ax.set_yticks([])
+    labels = args.labels or [""] * len(args.results)
+    if len(labels) != len(args.results):
+        ap.error("give one --labels entry per results file")
+    ncol = len(args.results)
+    fig, axes = plt.subplots(len(args.times), ncol, figsize=(10 * ncol, 2.6 * len(args.times)),
+                             squeeze=False)
+    for col, (path, label) in enumerate(zip(args.results, labels)):
+        with h5py.File(path, "r") as f:
+            steps = sorted(f["steps"])
+            times = np.array([f["steps"][s].attrs["time"] for s in steps]) / args.time_unit
+            for ax, t in zip(axes[:, col], args.times):
+                k = int(np.argmin(np.abs(times - t)))
+                g = f["steps"][steps[k]]["particles"]
+                x = g["position"][:, :2]
+                diff = g["principal_stress_difference"][...]
+                material = diff > 0
+                fringe = np.cos(2 * np.pi * args.fringes * diff / max(diff.max(), 1e-300))   # eq. 22
+                ax.scatter(x[material, 0], x[material, 1], c=fringe[material], cmap="gray",
+                           s=args.marker_size, vmin=-1, vmax=1, linewidths=0)
+                ax.set_aspect("equal")
+                ax.set_title(f"{label + ': ' if label else ''}t = {times[k]:.2f} "
+                             f"(eq. 22, f_no = {args.fringes:g})")
+                ax.set_xticks([])
+                ax.set_yticks([])
     fig.tight_layout()
     fig.savefig(args.out, dpi=90)
     print("wrote", args.out)
