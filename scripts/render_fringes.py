@@ -6,7 +6,7 @@ particle field ``principal_stress_difference``.
 
     python scripts/render_fringes.py OUTDIR/results.h5 [OUTDIR2/results.h5 ...] \\
         --times 1.9 4.8 6.7 --time-unit 9.8e-7 [--labels implicit explicit] \\
-        [--fringes 7] [--marker-size 1.5] [--out fringes.png]
+        [--fringes 7] [--pixel SIZE] [--out fringes.png]
 
 Several results files are drawn side by side (one column each).
 
@@ -23,7 +23,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("results", nargs="+")
     ap.add_argument("--labels", nargs="+", help="one title per results file")
-    ap.add_argument("--marker-size", type=float, default=1.5)
+    ap.add_argument("--pixel", type=float, default=None,
+                    help="pixel size (default: the smallest particle spacing)")
     ap.add_argument("--times", type=float, nargs="+", required=True)
     ap.add_argument("--time-unit", type=float, default=1.0)
     ap.add_argument("--fringes", type=float, default=7.0, help="f_no of eq. 22")
@@ -49,8 +50,9 @@ def main():
                 diff = g["principal_stress_difference"][...]
                 material = diff > 0
                 fringe = np.cos(2 * np.pi * args.fringes * diff / max(diff.max(), 1e-300))   # eq. 22
-                ax.scatter(x[material, 0], x[material, 1], c=fringe[material], cmap="gray",
-                           s=args.marker_size, vmin=-1, vmax=1, linewidths=0)
+                ax.imshow(pixels(x[material], fringe[material], args.pixel), origin="lower",
+                          cmap="gray", vmin=-1, vmax=1, interpolation="nearest",
+                          extent=extent(x[material], args.pixel))
                 ax.set_aspect("equal")
                 ax.set_title(f"{label + ': ' if label else ''}t = {times[k]:.2f} "
                              f"(eq. 22, f_no = {args.fringes:g})")
@@ -59,6 +61,35 @@ def main():
     fig.tight_layout()
     fig.savefig(args.out, dpi=90)
     print("wrote", args.out)
+
+
+def _pixel_size(x, pixel):
+    if pixel is not None:
+        return pixel
+    xs = np.unique(np.round(x[:, 0], 12))
+    return float(np.min(np.diff(xs))) if len(xs) > 1 else 1.0
+
+
+def extent(x, pixel):
+    h = _pixel_size(x, pixel)
+    lo = x.min(axis=0) - h / 2
+    n = np.floor((x.max(axis=0) - lo) / h).astype(int) + 1
+    return [lo[0], lo[0] + n[0] * h, lo[1], lo[1] + n[1] * h]
+
+
+def pixels(x, values, pixel):
+    """Average particle values over square pixels (NaN where empty): the
+    image of a particle field."""
+    h = _pixel_size(x, pixel)
+    lo = x.min(axis=0) - h / 2
+    ij = np.floor((x - lo) / h).astype(int)
+    n = ij.max(axis=0) + 1
+    flat = ij[:, 1] * n[0] + ij[:, 0]
+    total = np.bincount(flat, weights=values, minlength=n[0] * n[1])
+    count = np.bincount(flat, minlength=n[0] * n[1])
+    with np.errstate(invalid="ignore"):
+        image = total / count
+    return image.reshape(n[1], n[0])
 
 
 if __name__ == "__main__":
