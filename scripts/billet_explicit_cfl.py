@@ -1,0 +1,64 @@
+#!/usr/bin/env python3
+"""How the explicit billet depends on its time step: the 1 cm billet of
+tests/helpers.py (coarse_billet, Guilkey & Weiss 5.1 at half resolution),
+run explicitly at several CFL factors and quasi-statically. Prints the
+bulge (the largest x of a billet particle minus the 20 cm half width) at
+10-50% compression.
+
+    python scripts/billet_explicit_cfl.py [--cfl 0.5 0.25 0.1] [--stress-update musl]
+"""
+import argparse
+import os
+import sys
+
+import numpy as np
+import petsc4py
+petsc4py.init([])
+from mpi4py import MPI
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+from helpers import coarse_billet                       # noqa: E402
+from pimpm.config import validate                       # noqa: E402
+from pimpm.simulation import Simulation, StepFailed     # noqa: E402
+
+MARKS = (0.04, 0.08, 0.12, 0.16, 0.2)      # 10-50% compression (platen at 50 cm/s)
+
+
+def bulges(time_config):
+    raw = coarse_billet(time_config["integrator"])
+    raw["time"] = dict(time_config, end_time=0.2)
+    sim = Simulation(validate(raw), MPI.COMM_WORLD)
+    out = []
+    try:
+        while sim.time < 0.2 - 1e-12:
+            dt = sim.stable_time_step() if time_config["integrator"] == "explicit" else 0.01
+            sim.advance(min(dt, 0.2 - sim.time))
+            if sim.time >= MARKS[len(out)] - 1e-12:
+                p = sim.particles
+                out.append(float(p["x"][p["body"] == 0, 0].max()) - 20.0)
+    except StepFailed as err:
+        return out, sim.step_index, str(err)
+    return out, sim.step_index, ""
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cfl", type=float, nargs="+", default=[0.5, 0.25, 0.1])
+    ap.add_argument("--stress-update", default="musl")
+    args = ap.parse_args()
+    runs = [("quasi-static, dt 0.01", {"integrator": "quasi_static", "dt": 0.01})]
+    runs += [(f"explicit {args.stress_update}, cfl {c:g}",
+              {"integrator": "explicit", "cfl": c, "stress_update": args.stress_update})
+             for c in args.cfl]
+    print("| run | steps | " + " | ".join(f"bulge at {m / 0.4:.0%} (cm)" for m in MARKS) + " |")
+    print("|---|---|" + "---|" * len(MARKS))
+    for label, time_config in runs:
+        values, steps, failure = bulges(time_config)
+        cells = [f"{v:.3f}" for v in values] + ["failed"] * (len(MARKS) - len(values))
+        print(f"| {label} | {steps} | " + " | ".join(cells) + " |" + (f" {failure}" if failure else ""),
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()
