@@ -24,7 +24,7 @@ def main():
     ap.add_argument("results", nargs="+")
     ap.add_argument("--labels", nargs="+", help="one title per results file")
     ap.add_argument("--pixel", type=float, default=None,
-                    help="pixel size (default: the smallest particle spacing)")
+                    help="pixel size (default: about the particle spacing)")
     ap.add_argument("--times", type=float, nargs="+", required=True)
     ap.add_argument("--time-unit", type=float, default=1.0)
     ap.add_argument("--fringes", type=float, default=7.0, help="f_no of eq. 22")
@@ -64,10 +64,11 @@ def main():
 
 
 def _pixel_size(x, pixel):
+    """The given size, or about the particle spacing: sqrt(box area / n)."""
     if pixel is not None:
         return pixel
-    xs = np.unique(np.round(x[:, 0], 12))
-    return float(np.min(np.diff(xs))) if len(xs) > 1 else 1.0
+    span = np.ptp(x, axis=0)
+    return float(np.sqrt(np.prod(span) / len(x))) if len(x) > 1 and np.all(span > 0) else 1.0
 
 
 def extent(x, pixel):
