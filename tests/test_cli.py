@@ -325,7 +325,7 @@ BAD_INPUTS = {
         None, yaml_case(lambda cfg: None, "-ksp_type", "nonsense"),
         ["ksp_type", "nonsense"]),
     "momentum formulation with a symmetric solver": (
-        None, yaml_case(lambda cfg: cfg["time"].update(formulation="momentum"),
+        None, yaml_case(lambda cfg: cfg["time"].update(integrator="newmark", formulation="momentum"),
                         "-pimpm_preset", "cg-gamg"),
         ["cg-gamg", "time.formulation: momentum", "gmres-gamg"]),
     "output directory cannot be created": (
