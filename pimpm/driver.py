@@ -107,7 +107,8 @@ class History:
         self.dim = dim
         self.columns = ["step", "time", "dt", "newton_iterations", "linear_iterations",
                         "backtracks", "linear_fallbacks", "step_cuts",
-                        "residual_initial", "residual_final", "kinetic_energy", "strain_energy"]
+                        "residual_initial", "residual_final", "kinetic_energy", "strain_energy",
+                        "total_energy", "external_work"]
         for name in rigid_names:
             self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
         self.columns += ["wall_time"]
@@ -124,7 +125,8 @@ class History:
         row = [info["step"], repr(info["time"]), repr(info["dt"]), info["newton_iterations"],
                info["linear_iterations"], info["backtracks"], info["linear_fallbacks"],
                info["step_cuts"], repr(info["residual_initial"]), repr(info["residual_final"]),
-               repr(info["kinetic_energy"]), repr(info["strain_energy"])]
+               repr(info["kinetic_energy"]), repr(info["strain_energy"]),
+               repr(info["kinetic_energy"] + info["strain_energy"]), repr(info["external_work"])]
         for name in self.rigid_names:
             row += [repr(float(f)) for f in info["forces"][name]]
         row += [f"{info['wall_time']:.4f}"]

@@ -108,6 +108,8 @@ class Simulation:
         self._seed()
         self._check_every_body_has_particles()
         self.time = 0.0
+        self.external_work = 0.0        # work of rigid bodies and gravity on the material so far
+        self._body_forces = {}          # forces of the last step (trapezoidal work increments)
         self.step_index = 0
         self.count0 = self.particles.global_count(comm)
         self.rigid_count0 = self.rigid.global_count(comm)
@@ -332,6 +334,7 @@ class Simulation:
             "residual_final": float(history[-1]) if len(history) else 0.0,
             "residual_history": history,
             "forces": forces,
+            "external_work": self.external_work,
             "kinetic_energy": self.kinetic_energy(),
             "strain_energy": self.strain_energy(),
             "wall_time": wallclock.perf_counter() - t0,
@@ -370,6 +373,7 @@ class Simulation:
                 raise StepFailed(f"a particle would move {moved:.3g} cells at step "
                                  f"{self.step_index + 1} (t = {self.time + dt:.6g}, dt = {dt:.6g}); "
                                  f"time.max_particle_displacement is {limit:g}")
+        self._add_external_work(forces, u_p, dt)
         p["x"] = new_x
         if self.integrator == "newmark":                # G&W step 7
             p["v"] = p["v"] + 0.5 * dt * (p["a"] + a_p)
@@ -386,6 +390,21 @@ class Simulation:
             p["h_" + name] = values
         self.rigid["x"] = new_rigid_x
         return forces, v_new, a_new
+
+    def _add_external_work(self, forces, displacement, dt):
+        """Work done on the material during a step: rigid bodies, force
+        (trapezoidal in time) times their prescribed velocity, and gravity,
+        sum_p m_p g . du_p. Collective."""
+        work = 0.0
+        for _, name, velocity, _ in self.rigid_bodies:
+            previous = self._body_forces.get(name, np.zeros(self.dim))
+            work += 0.5 * float(np.dot(previous + forces[name], velocity)) * dt
+        if len(displacement) and np.any(self.gravity):
+            local = float(np.sum(self.particles["mass"] * (displacement @ self.gravity)))
+        else:
+            local = 0.0
+        self.external_work += work + self.comm.allreduce(local, op=MPI.SUM)
+        self._body_forces = {name: np.array(f) for name, f in forces.items()}
 
     # ----------------------------------------------------------------- explicit MPM
     def stable_time_step(self):
@@ -509,6 +528,7 @@ class Simulation:
                 remapped = np.where(has_mass, momentum / np.where(has_mass, mass, 1.0), 0.0)
                 remapped = np.where(cons.fixed, cons.value / dt, remapped)
                 self._explicit_stress(node_index, S, G, grid.owned_to_local(remapped), dt, saved)
+            self._add_external_work(forces, new_x - p["x"], dt)
             p["v"], p["x"] = new_v, new_x
             p["a"] = np.zeros_like(new_v)
             self.rigid["x"] = new_rigid_x
@@ -522,7 +542,8 @@ class Simulation:
             "step": self.step_index, "time": self.time, "dt": dt, "explicit": True,
             "newton_iterations": 0, "linear_iterations": 0, "backtracks": 0, "linear_fallbacks": 0,
             "residual_initial": 0.0, "residual_final": 0.0, "residual_history": np.zeros(0),
-            "forces": forces, "kinetic_energy": self.kinetic_energy(),
+            "forces": forces, "external_work": self.external_work,
+            "kinetic_energy": self.kinetic_energy(),
             "strain_energy": self.strain_energy(), "wall_time": wallclock.perf_counter() - t0,
         }
 

@@ -36,7 +36,8 @@ INPUTS = sorted(glob.glob(os.path.join(ROOT, "inputs", "*.yaml")))
 BAR = os.path.join(ROOT, "inputs", "bar_tension.yaml")
 OUTPUT_FILES = ("results.h5", "particles.xdmf", "grid.xdmf", "history.csv")
 HISTORY_COLUMNS = ["step", "time", "dt", "newton_iterations", "linear_iterations",
-                   "residual_initial", "residual_final", "kinetic_energy", "strain_energy"]
+                   "residual_initial", "residual_final", "kinetic_energy", "strain_energy",
+                   "total_energy", "external_work"]
 ERROR = "pimpm: error:"
 
 needs_mpiexec = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
@@ -403,6 +404,12 @@ def test_history_has_one_row_per_step(bar_run):
     assert sum(col["dt"]) == pytest.approx(10.34)
     assert col["newton_iterations"][0] >= 1
     assert all(f < 0 for f in col["puller_force_x"])  # the bar pulls back
+    # energy balance of the elastic bar pulled from rest: the puller's work
+    # (its force, trapezoidal in time, times its velocity) is the energy stored
+    total = np.array(col["kinetic_energy"]) + np.array(col["strain_energy"])
+    np.testing.assert_allclose(col["total_energy"], total, rtol=1e-12)
+    assert col["external_work"][-1] > 0
+    np.testing.assert_allclose(col["external_work"], total, rtol=0.01)
     assert all(e > 0 for e in col["strain_energy"])
 
 
