@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import finite_plasticity, small_strain
+from . import finite_plasticity, small_strain, smallmat
 
 __all__ = [
     "uncoupled_neo_hookean",
@@ -403,11 +403,15 @@ class J2FiniteStrain(PlasticParameters, Material):
         return sigma, c
 
     def strain_energy(self, F, history=None):
-        """Stored energy of the elastic part: kappa/2 (ln J)^2 + mu/2 (tr bbar_e - 3)."""
+        """Stored energy of the elastic part: kappa/2 (ln J)^2 + mu/2 (tr bbar_e - 3),
+        with bbar_e made unimodular first: the return map (Simo & Hughes Box
+        9.1) keeps tr bbar_e and lets det bbar_e drift below 1 under plastic
+        flow, which would leave plastic work counted as stored energy."""
         F = _as_F(F)
         J = np.linalg.det(F)
         bbar = history["elastic_left_cauchy_green"] if history else \
             J[:, None, None] ** (-2.0 / 3.0) * np.matmul(F, np.swapaxes(F, 1, 2))
+        bbar = bbar * smallmat.det(bbar)[:, None, None] ** (-1.0 / 3.0)
         return 0.5 * self.bulk_modulus * np.log(J) ** 2 + 0.5 * self.shear_modulus * (
             np.trace(bbar, axis1=1, axis2=2) - 3.0)
 
