@@ -111,6 +111,7 @@ class TangentShell:
         self.v = None           # (n,) current volumes
         self.scale = 1.0        # residual scale (dimensionless residual)
         self.project = None     # momentum formulation: x -> R x
+        self.hoop = None        # axisymmetric hoop blocks
 
     def update(self, state, sigma, c, F_inc, scale, project=None):
         """``project`` (momentum formulation): owned u -> (owned, local) R u."""
@@ -121,6 +122,9 @@ class TangentShell:
         self.g = assembly.current_gradients(F_inc, state.G)
         self.v = state.volume_n * smallmat.det(F_inc)
         self.a = assembly.spatial_tangent(sigma, c, dim)
+        # axisymmetric hoop terms: small per-particle blocks (n, nn*dim, nn*dim)
+        self.hoop = None if state.radius is None else assembly.hoop_tangents(
+            sigma, c, F_inc, state.G, state.S, state.volume_n, state.radius)
 
     def mult(self, mat, x, y):
         st, grid = self.state, self.grid
@@ -134,6 +138,10 @@ class TangentShell:
             H = gradient_at_particles(st.node_index, self.g, x_local)      # (n, dim, dim)
             stress_rate = np.einsum("pacbd,pbd->pac", self.a, H)
             pairs = self.v[:, None, None] * np.matmul(self.g, np.transpose(stress_rate, (0, 2, 1)))
+            if self.hoop is not None:
+                n, nn = st.node_index.shape
+                x_pairs = x_local[st.node_index].reshape(n, nn * dim, 1)
+                pairs += np.matmul(self.hoop, x_pairs).reshape(n, nn, dim)
             local = scatter(st.node_index, pairs, grid.n_local_nodes)
         else:
             local = np.zeros((grid.n_local_nodes, dim))
@@ -150,6 +158,8 @@ class TangentShell:
             # K_(ia)(ia) = sum_p v_p g_ic a_acad g_id
             diag_a = np.einsum("pacad->pacd", self.a)
             pairs = self.v[:, None, None] * np.einsum("pic,pacd,pid->pia", self.g, diag_a, self.g)
+            if self.hoop is not None:
+                pairs += np.diagonal(self.hoop, axis1=1, axis2=2).reshape(pairs.shape)
             local = scatter(st.node_index, pairs, grid.n_local_nodes)
         else:
             local = np.zeros((grid.n_local_nodes, dim))

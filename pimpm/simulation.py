@@ -123,9 +123,6 @@ class Simulation:
         if self.explicit:
             self._check_explicit_time_step()
             return
-        if self.axisymmetric and config["solver"]["preset"] == "matrix-free":
-            raise SetupError("solver.preset = 'matrix-free': expected another preset with "
-                             "kinematics axisymmetric (the shell has no hoop terms yet)")
         try:
             self.solver = ImplicitSolver(self.grid, config["solver"], DEFAULT_SOLVER_OPTIONS,
                                          residual_scale(config, self.materials), self.stages,
