@@ -1,0 +1,86 @@
+#!/usr/bin/env python3
+"""Shape functions against cell-crossing trouble: the coarse billet of
+tests/helpers.py (Guilkey & Weiss 5.1 at 1 cm cells, 50% compression,
+dynamic and quasi-static) and the colliding disks (Sulsky & Kaul 3.1.1,
+Newmark at dt = 0.4) with linear, GIMP and quadratic B-spline shape
+functions. Prints Newton iterations, step cuts, the bulge and, for the
+disks, the largest departure of the total energy from its initial value.
+
+    python scripts/shape_comparison.py [--shapes linear gimp bspline]
+"""
+import argparse
+import copy
+import os
+import sys
+
+import numpy as np
+import petsc4py
+petsc4py.init([])
+import yaml
+from mpi4py import MPI
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+from helpers import coarse_billet                       # noqa: E402
+from pimpm.config import validate                       # noqa: E402
+from pimpm.simulation import Simulation, StepFailed     # noqa: E402
+
+
+def run(raw, until, dt):
+    sim = Simulation(validate(raw), MPI.COMM_WORLD)
+    e0 = sim.kinetic_energy() + sim.strain_energy()
+    newton, steps, cuts, worst = 0, 0, 0, 0.0
+    while sim.time < until - 1e-12:
+        step = min(dt, until - sim.time)
+        for attempt in range(5):          # a failed step is halved and retried (as pimpm's driver does)
+            try:
+                info = sim.advance(step)
+                break
+            except StepFailed as err:
+                if attempt == 4:
+                    return {"failed": str(err)[:80], "steps": steps}
+                step *= 0.5
+                cuts += 1
+        newton += info["newton_iterations"]
+        steps += 1
+        if e0 > 0:
+            worst = max(worst, abs(info["kinetic_energy"] + info["strain_energy"] - e0) / e0)
+    p = sim.particles
+    bulge = float(p["x"][p["body"] == 0, 0].max()) - 20.0
+    sim.solver.destroy()
+    return {"steps": steps, "cuts": cuts, "newton": newton, "bulge": bulge, "energy": worst}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--shapes", nargs="+", default=["linear", "gimp", "bspline"])
+    args = ap.parse_args()
+    with open(os.path.join(ROOT, "inputs", "colliding_disks.yaml")) as f:
+        disks = yaml.safe_load(f)
+    print("| problem | shape functions | steps (cuts) | Newton its | Newton its per step | result |")
+    print("|---|---|---|---|---|---|")
+    for integrator in ("quasi_static", "newmark"):
+        for shape in args.shapes:
+            raw = coarse_billet(integrator)
+            raw["grid"]["shape_functions"] = shape
+            r = run(raw, 0.2, 0.01)
+            name = f"billet, {integrator}"
+            if "failed" in r:
+                print(f"| {name} | {shape} | {r['steps']} | | | failed: {r['failed']} |", flush=True)
+                continue
+            print(f"| {name} | {shape} | {r['steps']} ({r['cuts']}) | {r['newton']} | "
+                  f"{r['newton'] / r['steps']:.1f} | "
+                  f"bulge at 50% {r['bulge']:.3f} cm |", flush=True)
+    for shape in args.shapes:
+        raw = copy.deepcopy(disks)
+        raw["grid"]["shape_functions"] = shape
+        r = run(raw, 150.0, 0.4)
+        if "failed" in r:
+            print(f"| colliding disks | {shape} | {r['steps']} | | | failed: {r['failed']} |", flush=True)
+            continue
+        print(f"| colliding disks, Newmark dt 0.4 | {shape} | {r['steps']} ({r['cuts']}) | {r['newton']} | "
+              f"{r['newton'] / r['steps']:.1f} | total energy within {100 * r['energy']:.2f}% |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
