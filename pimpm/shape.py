@@ -20,19 +20,26 @@ def tensor_product(w, dw):
     return S, G
 
 
-class LinearShape:
+class TensorProductShape:
+    """Shape functions that are products of 1D functions, each particle
+    touching ``nodes_per_axis`` consecutive nodes per axis."""
+
+    nodes_per_axis = 2
+
+    def __init__(self, dim):
+        self.dim = dim
+        # node offsets from the first node touched, x fastest: (nodes_per_particle, dim)
+        self.offsets = np.array([o[::-1] for o in itertools.product(range(self.nodes_per_axis),
+                                                                     repeat=dim)], dtype=np.int64)
+        self.nodes_per_particle = len(self.offsets)
+
+
+class LinearShape(TensorProductShape):
     """Bilinear / trilinear tent functions (MPM intro Fig. 2-3): each particle
     touches the ``2**dim`` nodes of the cell that contains it."""
 
     name = "linear"
     stencil_width = 1
-
-    def __init__(self, dim):
-        self.dim = dim
-        # node offsets within a cell, x fastest: (nodes_per_particle, dim)
-        self.offsets = np.array([o[::-1] for o in itertools.product((0, 1), repeat=dim)],
-                                dtype=np.int64)
-        self.nodes_per_particle = len(self.offsets)
 
     def evaluate(self, x, lower, spacing, cells, half_size=None):
         """Return ``(nodes, S, G)`` for positions ``x`` (n, dim):
@@ -81,7 +88,7 @@ def _gimp_1d(r, l):
     return w, dw
 
 
-class GIMPShape:
+class GIMPShape(TensorProductShape):
     """GIMP: the tent functions averaged over each particle's domain (initial
     half-length h / (2 ppc) per axis, stretched by the diagonal of F by the
     caller), smooth across cell boundaries, which
@@ -92,12 +99,7 @@ class GIMPShape:
 
     name = "gimp"
     stencil_width = 2
-
-    def __init__(self, dim):
-        self.dim = dim
-        self.offsets = np.array([o[::-1] for o in itertools.product((0, 1, 2), repeat=dim)],
-                                dtype=np.int64)
-        self.nodes_per_particle = len(self.offsets)
+    nodes_per_axis = 3
 
     def evaluate(self, x, lower, spacing, cells, half_size=None):
         xi = (x - lower) / spacing
@@ -127,7 +129,7 @@ def _bspline2_1d(r):
     return w, dw
 
 
-class QuadraticBSplineShape:
+class QuadraticBSplineShape(TensorProductShape):
     """Node-centred quadratic B-splines (C1, non-negative; Steffen, Kirby &
     Berzins 2008): no cell-crossing jump in the gradients at all, and each
     particle touches the nearest node and its two neighbours per axis
@@ -143,12 +145,7 @@ class QuadraticBSplineShape:
 
     name = "bspline"
     stencil_width = 2
-
-    def __init__(self, dim):
-        self.dim = dim
-        self.offsets = np.array([o[::-1] for o in itertools.product((0, 1, 2), repeat=dim)],
-                                dtype=np.int64)
-        self.nodes_per_particle = len(self.offsets)
+    nodes_per_axis = 3
 
     @staticmethod
     def weights_1d(xi, cells):

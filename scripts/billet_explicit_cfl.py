@@ -11,7 +11,6 @@ import argparse
 import os
 import sys
 
-import numpy as np
 import petsc4py
 petsc4py.init([])
 from mpi4py import MPI

@@ -13,7 +13,6 @@ import copy
 import os
 import sys
 
-import numpy as np
 import petsc4py
 petsc4py.init([])
 import yaml
