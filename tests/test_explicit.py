@@ -119,3 +119,38 @@ def test_explicit_billet_same_on_1_and_2_ranks(tmp_path):
     assert np.max(np.abs(p1["displacement"])) > 0.1
     np.testing.assert_allclose(p2["position"], p1["position"], rtol=0, atol=1e-10)
     np.testing.assert_allclose(p2["stress"], p1["stress"], rtol=0, atol=1e-8 * np.abs(p1["stress"]).max())
+
+
+def test_explicit_axisymmetric_upsetting_same_on_1_and_3_ranks(tmp_path):
+    """Explicit axisymmetric J2 (the first 0.1 mm of inputs/upsetting.yaml at
+    2 mm cells) on 1 rank and on 3 ranks (rank 2 owns no material particles): the
+    same history (forces, energies, external work) and particle state."""
+    import os
+    import yaml
+    from helpers import MPIEXEC, last_particles, read_history, run_pimpm, write_yaml
+    if MPIEXEC is None:
+        pytest.skip("mpiexec not found")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    with open(os.path.join(root, "inputs", "upsetting.yaml")) as f:
+        raw = yaml.safe_load(f)
+    raw["grid"].update(upper=[24.0, 18.0], cells=[12, 9])
+    raw["bodies"][1]["geometry"].update(lower=[0.0, 15.0], upper=[22.0, 17.0])
+    raw["time"] = {"integrator": "explicit", "end_time": 1.0e-4}
+    raw["output"] = {"directory": "out", "every": 1000}
+    results = []
+    for n in (1, 3):
+        work = tmp_path / f"r{n}"
+        work.mkdir()
+        write_yaml(work / "u.yaml", raw)
+        proc = run_pimpm(n, ["u.yaml"], cwd=work, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        particles, time = last_particles(work / "out" / "results.h5")
+        results.append((particles, time, read_history(work / "out" / "history.csv")))
+    (p1, t1, h1), (p3, t3, h3) = results
+    assert t1 == pytest.approx(1.0e-4, rel=1e-12) and len(h1) == len(h3) > 300
+    for column in ("platen_force_y", "strain_energy", "external_work"):
+        np.testing.assert_allclose(h3[column], h1[column], rtol=1e-9)
+    assert h1["external_work"][-1] > 0
+    assert np.array_equal(p1["id"], p3["id"])
+    np.testing.assert_allclose(p3["position"], p1["position"], rtol=0, atol=1e-9)
+    assert p1["eq_plastic_strain"].max() > 0.0
