@@ -123,7 +123,7 @@ def test_explicit_billet_same_on_1_and_2_ranks(tmp_path):
 
 def test_explicit_axisymmetric_upsetting_same_on_1_and_3_ranks(tmp_path):
     """Explicit axisymmetric J2 (the first 0.1 mm of inputs/upsetting.yaml at
-    2 mm cells) on 1 rank and on 3 ranks (rank 2 owns no material particles): the
+    2 mm cells) on 1 rank and on 3 ranks: the
     same history (forces, energies, external work) and particle state."""
     import os
     import yaml
