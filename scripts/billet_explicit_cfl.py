@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
-"""How the explicit billet depends on its time step: the 1 cm billet of
+"""How the billet depends on the time step: the 1 cm billet of
 tests/helpers.py (coarse_billet, Guilkey & Weiss 5.1 at half resolution),
-run explicitly at several CFL factors and quasi-statically. Prints the
-bulge (the largest x of a billet particle minus the 20 cm half width) at
-10-50% compression.
+run quasi-statically at several steps and explicitly at several CFL
+factors. Prints the bulge (the largest x of a billet particle minus the
+20 cm half width) at 10-50% compression.
 
-    python scripts/billet_explicit_cfl.py [--cfl 0.5 0.25 0.1] [--stress-update musl]
+    python scripts/billet_explicit_cfl.py [--qs-dt 0.01 0.005 0.0025]
+        [--cfl 0.5 0.25 0.1] [--stress-update musl]
 """
 import argparse
 import os
@@ -31,7 +32,7 @@ def bulges(time_config):
     out = []
     try:
         while sim.time < 0.2 - 1e-12:
-            dt = sim.stable_time_step() if time_config["integrator"] == "explicit" else 0.01
+            dt = sim.stable_time_step() if time_config["integrator"] == "explicit" else time_config["dt"]
             sim.advance(min(dt, 0.2 - sim.time))
             if sim.time >= MARKS[len(out)] - 1e-12:
                 p = sim.particles
@@ -44,9 +45,10 @@ def bulges(time_config):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cfl", type=float, nargs="+", default=[0.5, 0.25, 0.1])
+    ap.add_argument("--qs-dt", type=float, nargs="+", default=[0.01, 0.005, 0.0025])
     ap.add_argument("--stress-update", default="musl")
     args = ap.parse_args()
-    runs = [("quasi-static, dt 0.01", {"integrator": "quasi_static", "dt": 0.01})]
+    runs = [(f"quasi-static, dt {dt:g}", {"integrator": "quasi_static", "dt": dt}) for dt in args.qs_dt]
     runs += [(f"explicit {args.stress_update}, cfl {c:g}",
               {"integrator": "explicit", "cfl": c, "stress_update": args.stress_update})
              for c in args.cfl]
