@@ -83,3 +83,31 @@ def last_particles(results):
         time = f["steps"][steps[-1]].attrs["time"]
     order = np.argsort(data["id"])
     return {k: v[order] for k, v in data.items()}, time
+
+
+def coarse_upsetting():
+    """inputs/upsetting.yaml (Sulsky & Kaul 3.2.7, axisymmetric finite-strain
+    J2) at 2 mm cells with a 2 mm platen: a small plastic problem. The
+    caller sets ``time``."""
+    with open(os.path.join(ROOT, "inputs", "upsetting.yaml")) as f:
+        raw = yaml.safe_load(f)
+    raw["grid"].update(upper=[24.0, 18.0], cells=[12, 9])
+    raw["bodies"][1]["geometry"].update(lower=[0.0, 15.0], upper=[22.0, 17.0])
+    return raw
+
+
+def run_on_ranks(tmp_path, raw, ranks, timeout=600):
+    """Run the CLI on ``raw`` (its output.directory relative to the run
+    directory) once per rank count; returns [(last particles, time, history)]
+    in the order of ``ranks``. Asserts that every run finished."""
+    results = []
+    for n in ranks:
+        work = tmp_path / f"ranks{n}"
+        work.mkdir()
+        write_yaml(work / "input.yaml", raw)
+        proc = run_pimpm(n, ["input.yaml"], cwd=work, timeout=timeout)
+        assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+        out = work / raw["output"]["directory"]
+        particles, time = last_particles(out / "results.h5")
+        results.append((particles, time, read_history(out / "history.csv")))
+    return results

@@ -6,7 +6,7 @@ backward Euler with the momentum formulation (3.2.1) is run the same way."""
 import numpy as np
 import pytest
 
-from helpers import MPIEXEC, coarse_billet, last_particles, read_history, run_pimpm, write_yaml
+from helpers import MPIEXEC, coarse_billet, run_on_ranks
 
 pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
 
@@ -22,20 +22,9 @@ def outer_edge_particle(particles):
 @pytest.mark.parametrize("integrator,formulation", [("quasi_static", "velocity"), ("newmark", "velocity"),
                                                     ("backward_euler", "momentum")])
 def test_billet_reaches_50_percent_and_ranks_agree(integrator, formulation, tmp_path):
-    results = {}
-    for n in (1, 2):
-        workdir = tmp_path / f"ranks{n}"
-        workdir.mkdir()
-        config = coarse_billet(integrator, directory="out")
-        config["time"]["formulation"] = formulation
-        write_yaml(workdir / "billet.yaml", config)
-        proc = run_pimpm(n, ["billet.yaml"], cwd=workdir, timeout=600)
-        assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-        particles, time = last_particles(workdir / "out" / "results.h5")
-        history = read_history(workdir / "out" / "history.csv")
-        results[n] = particles, time, history
-    p1, t1, h1 = results[1]
-    p2, t2, h2 = results[2]
+    config = coarse_billet(integrator, directory="out")
+    config["time"]["formulation"] = formulation
+    (p1, t1, h1), (p2, t2, h2) = run_on_ranks(tmp_path, config, (1, 2))
     # 50% compression: the platen (rigid particles) travelled 10 cm of the 20 cm half height
     assert t1 == pytest.approx(0.2, rel=1e-12) and t2 == pytest.approx(0.2, rel=1e-12)
     platen = p1["body"] == 1

@@ -100,20 +100,12 @@ def test_backward_euler_dissipates_where_newmark_conserves():
 
 
 def test_explicit_billet_same_on_1_and_2_ranks(tmp_path):
-    from helpers import MPIEXEC, coarse_billet, last_particles, run_pimpm, write_yaml
+    from helpers import MPIEXEC, coarse_billet, run_on_ranks
     if MPIEXEC is None:
         pytest.skip("mpiexec not found")
     raw = coarse_billet("explicit", directory="out")
     raw["time"] = {"integrator": "explicit", "end_time": 0.01}
-    results = []
-    for n in (1, 2):
-        work = tmp_path / f"r{n}"
-        work.mkdir()
-        write_yaml(work / "b.yaml", raw)
-        proc = run_pimpm(n, ["b.yaml"], cwd=work, timeout=300)
-        assert proc.returncode == 0, proc.stderr[-2000:]
-        results.append(last_particles(work / "out" / "results.h5"))
-    (p1, t1), (p2, t2) = results
+    (p1, t1, _), (p2, t2, _) = run_on_ranks(tmp_path, raw, (1, 2), timeout=300)
     assert t1 == pytest.approx(0.01, rel=1e-12) and t2 == pytest.approx(0.01, rel=1e-12)
     assert np.array_equal(p1["id"], p2["id"])
     assert np.max(np.abs(p1["displacement"])) > 0.1
@@ -125,28 +117,13 @@ def test_explicit_axisymmetric_upsetting_same_on_1_and_3_ranks(tmp_path):
     """Explicit axisymmetric J2 (the first 0.1 mm of inputs/upsetting.yaml at
     2 mm cells) on 1 rank and on 3 ranks: the
     same history (forces, energies, external work) and particle state."""
-    import os
-    import yaml
-    from helpers import MPIEXEC, last_particles, read_history, run_pimpm, write_yaml
+    from helpers import MPIEXEC, coarse_upsetting, run_on_ranks
     if MPIEXEC is None:
         pytest.skip("mpiexec not found")
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    with open(os.path.join(root, "inputs", "upsetting.yaml")) as f:
-        raw = yaml.safe_load(f)
-    raw["grid"].update(upper=[24.0, 18.0], cells=[12, 9])
-    raw["bodies"][1]["geometry"].update(lower=[0.0, 15.0], upper=[22.0, 17.0])
+    raw = coarse_upsetting()
     raw["time"] = {"integrator": "explicit", "end_time": 1.0e-4}
     raw["output"] = {"directory": "out", "every": 1000}
-    results = []
-    for n in (1, 3):
-        work = tmp_path / f"r{n}"
-        work.mkdir()
-        write_yaml(work / "u.yaml", raw)
-        proc = run_pimpm(n, ["u.yaml"], cwd=work, timeout=300)
-        assert proc.returncode == 0, proc.stderr[-2000:]
-        particles, time = last_particles(work / "out" / "results.h5")
-        results.append((particles, time, read_history(work / "out" / "history.csv")))
-    (p1, t1, h1), (p3, t3, h3) = results
+    (p1, t1, h1), (p3, t3, h3) = run_on_ranks(tmp_path, raw, (1, 3), timeout=300)
     assert t1 == pytest.approx(1.0e-4, rel=1e-12) and len(h1) == len(h3) > 300
     for column in ("platen_force_y", "strain_energy", "external_work"):
         np.testing.assert_allclose(h3[column], h1[column], rtol=1e-9)

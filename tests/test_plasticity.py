@@ -187,18 +187,13 @@ def test_energy_balance_of_plastic_compression(kinematics, model, integrator):
     plus kinetic energy plus the plastic work, to 1% (measured 0.02-0.5%).
     Catches a stored energy that counts plastic work (the finite-strain
     model's bbar_e loses unimodularity in the return map)."""
-    import os
-    import yaml
     from mpi4py import MPI
+    from helpers import coarse_upsetting
     from pimpm.config import validate
     from pimpm.simulation import Simulation
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    with open(os.path.join(root, "inputs", "upsetting.yaml")) as f:
-        raw = yaml.safe_load(f)
+    raw = coarse_upsetting()
     raw["kinematics"] = kinematics
     raw["materials"]["steel"]["model"] = model
-    raw["grid"].update(upper=[24.0, 18.0], cells=[12, 9])
-    raw["bodies"][1]["geometry"].update(lower=[0.0, 15.0], upper=[22.0, 17.0])
     end = 1.0e-4
     raw["time"] = {"integrator": integrator, "end_time": end}
     if integrator != "explicit":

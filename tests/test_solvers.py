@@ -150,13 +150,8 @@ def test_matrix_free_axisymmetric_plastic_matches_assembled():
     """The matrix-free product carries the axisymmetric hoop terms: four
     plastic steps of the upsetting problem (2 mm cells) take the same Newton
     iterations and end at the same particle positions as with MUMPS."""
-    import os
-    import yaml
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    with open(os.path.join(root, "inputs", "upsetting.yaml")) as f:
-        raw = yaml.safe_load(f)
-    raw["grid"].update(upper=[24.0, 18.0], cells=[12, 9])
-    raw["bodies"][1]["geometry"].update(lower=[0.0, 15.0], upper=[22.0, 17.0])
+    from helpers import coarse_upsetting
+    raw = coarse_upsetting()
     raw["time"] = {"integrator": "quasi_static", "end_time": 2e-3, "dt": 5e-4}
     results = {}
     for preset in ("mumps", "matrix-free"):
