@@ -79,6 +79,14 @@ class StepState:
             return self.dt * self.velocity
         return np.zeros_like(self.velocity)
 
+    def own_value_dofs(self):
+        """Owned dofs that the momentum formulation's projection leaves alone:
+        prescribed ones and those of nodes with (next to) no mass. A particle
+        within round-off of a cell face gives the node across it a mass of
+        ~1e-16 m_p made of round-off: projecting onto it would divide noise by
+        noise (and leave a numerically zero Jacobian column)."""
+        return self.fixed | ~(self.mass > self.projection_floor)
+
     def inertia(self, u):
         """M a(t+dt) as a function of u (G&W eq. 16 for the trapezoidal rule)."""
         return self.mass * self.grid_kinematics(u)[1]
@@ -120,21 +128,12 @@ def project_displacement(state, grid, u_owned, u_local, base=None):
     du = grid_to_particle(state.node_index, state.S, u_local)
     weighted = particle_to_grid(state.node_index, state.S, state.particle_mass[:, None] * du,
                                 grid.n_local_nodes)
-    keep = own_value_dofs(state)
+    keep = state.own_value_dofs()
     projected = grid.sum_to_owned(weighted) / np.where(keep, 1.0, state.mass)
     projected[keep] = u_owned[keep]
     if base is not None:
         projected += base[0]
     return projected, grid.owned_to_local(projected)
-
-
-def own_value_dofs(state):
-    """Owned dofs that the momentum formulation's projection leaves alone:
-    prescribed ones and those of nodes with (next to) no mass. A particle
-    within round-off of a cell face gives the node across it a mass of
-    ~1e-16 m_p made of round-off: projecting onto it would divide noise by
-    noise (and leave a numerically zero Jacobian column)."""
-    return state.fixed | ~(state.mass > state.projection_floor)
 
 
 def material_update(material, F, history, tangent, plane_stress=False, F_inc=None):
@@ -453,7 +452,7 @@ class ImplicitSolver:
             R.setValuesBlockedLocalRCV(nodes, nodes, blocks.reshape(len(nodes), -1),
                                        addv=PETSc.InsertMode.ADD_VALUES)
         R.assemble()
-        keep = own_value_dofs(st)
+        keep = st.own_value_dofs()
         self.diag.getArray()[:] = np.where(keep, 0.0, 1.0 / np.where(keep, 1.0, st.mass))
         R.diagonalScale(L=self.diag)
         rows = (np.nonzero(keep)[0] + self.row_offset).astype(PETSc.IntType)

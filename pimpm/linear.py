@@ -168,7 +168,7 @@ class TangentShell:
             # momentum formulation: diag(K) diag(R), a Jacobi approximation of diag(K R)
             weights = scatter(st.node_index, st.particle_mass[:, None] * st.S**2, grid.n_local_nodes)
             r_diag = grid.sum_to_owned(np.repeat(weights[:, None], dim, axis=1))
-            keep = st.fixed | ~(st.mass > st.projection_floor)
+            keep = st.own_value_dofs()
             out *= np.where(keep, 1.0, r_diag / np.where(keep, 1.0, st.mass))
         if st.dynamic:
             out += st.mass_coefficient * st.mass
