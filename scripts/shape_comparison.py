@@ -3,8 +3,9 @@
 tests/helpers.py (Guilkey & Weiss 5.1 at 1 cm cells, 50% compression,
 dynamic and quasi-static) and the colliding disks (Sulsky & Kaul 3.1.1,
 Newmark at dt = 0.4) with linear, GIMP and quadratic B-spline shape
-functions. Prints Newton iterations, step cuts, the bulge and, for the
-disks, the largest departure of the total energy from its initial value.
+functions, with pimpm's step control. Prints Newton iterations, step cuts,
+the bulge and, for the disks, the largest departure of the total energy
+from its initial value.
 
     python scripts/shape_comparison.py [--shapes linear gimp bspline]
 """
@@ -22,32 +23,32 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 from helpers import coarse_billet                       # noqa: E402
 from pimpm.config import validate                       # noqa: E402
+from pimpm.driver import TimeStepControl                # noqa: E402
 from pimpm.simulation import Simulation, StepFailed     # noqa: E402
 
 
-def run(raw, until, dt):
+def run(raw):
+    """Run to end_time with pimpm's own step control (failed steps halved and
+    retried, dt grown back after easy steps)."""
     sim = Simulation(validate(raw), MPI.COMM_WORLD)
+    control = TimeStepControl(sim.config["time"])
     e0 = sim.kinetic_energy() + sim.strain_energy()
-    newton, steps, cuts, worst = 0, 0, 0, 0.0
-    while sim.time < until - 1e-12:
-        step = min(dt, until - sim.time)
-        for attempt in range(5):          # a failed step is halved and retried (as pimpm's driver does)
-            try:
-                info = sim.advance(step)
-                break
-            except StepFailed as err:
-                if attempt == 4:
-                    return {"failed": str(err)[:80], "steps": steps}
-                step *= 0.5
-                cuts += 1
+    newton, cuts, worst = 0, 0, 0.0
+    while not control.done(sim.time):
+        try:
+            info = sim.advance(control.next_dt(sim.time))
+        except StepFailed as err:
+            if not control.failed():
+                return {"failed": str(err)[:80], "steps": sim.step_index}
+            continue
+        cuts += control.succeeded(info["newton_iterations"])
         newton += info["newton_iterations"]
-        steps += 1
         if e0 > 0:
             worst = max(worst, abs(info["kinetic_energy"] + info["strain_energy"] - e0) / e0)
     p = sim.particles
     bulge = float(p["x"][p["body"] == 0, 0].max()) - 20.0
     sim.solver.destroy()
-    return {"steps": steps, "cuts": cuts, "newton": newton, "bulge": bulge, "energy": worst}
+    return {"steps": sim.step_index, "cuts": cuts, "newton": newton, "bulge": bulge, "energy": worst}
 
 
 def main():
@@ -62,7 +63,7 @@ def main():
         for shape in args.shapes:
             raw = coarse_billet(integrator)
             raw["grid"]["shape_functions"] = shape
-            r = run(raw, 0.2, 0.01)
+            r = run(raw)
             name = f"billet, {integrator}"
             if "failed" in r:
                 print(f"| {name} | {shape} | {r['steps']} | | | failed: {r['failed']} |", flush=True)
@@ -73,7 +74,7 @@ def main():
     for shape in args.shapes:
         raw = copy.deepcopy(disks)
         raw["grid"]["shape_functions"] = shape
-        r = run(raw, 150.0, 0.4)
+        r = run(raw)
         if "failed" in r:
             print(f"| colliding disks | {shape} | {r['steps']} | | | failed: {r['failed']} |", flush=True)
             continue
