@@ -156,6 +156,12 @@ class Grid:
         self.da.localToGlobal(lvec, gvec, addv=PETSc.InsertMode.ADD_VALUES)
         return gvec.getArray().copy()
 
+    def sum_scalar_to_owned(self, local_values):
+        """Sum a ghosted-local nodal scalar (n_local_nodes,) over all ranks and
+        repeat it per component: an owned dof array like :meth:`sum_to_owned`
+        (nodal masses and weights). Collective."""
+        return self.sum_to_owned(np.repeat(np.asarray(local_values)[:, None], self.dim, axis=1))
+
     def owned_to_local(self, owned_values):
         """Ghosted-local copy (n_local_nodes, dim) of an owned dof array.
         Collective."""

@@ -9,7 +9,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import assembly, smallmat
-from .transfer import gradient_at_particles, scatter
+from .transfer import gradient_at_particles, particle_to_grid, scatter
 
 #: GAMG settings measured by scripts/bench_solvers.py (docs/PERFORMANCE.md): a
 #: drop threshold of 0.02 and 3 smoothing steps per level keep the iteration
@@ -164,10 +164,10 @@ class TangentShell:
         else:
             local = np.zeros((grid.n_local_nodes, dim))
         out = grid.sum_to_owned(local)
-        if self.project is not None and len(out):
+        if self.project is not None:             # (collective: every rank takes this branch)
             # momentum formulation: diag(K) diag(R), a Jacobi approximation of diag(K R)
-            weights = scatter(st.node_index, st.particle_mass[:, None] * st.S**2, grid.n_local_nodes)
-            r_diag = grid.sum_to_owned(np.repeat(weights[:, None], dim, axis=1))
+            r_diag = grid.sum_scalar_to_owned(
+                particle_to_grid(st.node_index, st.S**2, st.particle_mass, grid.n_local_nodes))
             keep = st.own_value_dofs()
             out *= np.where(keep, 1.0, r_diag / np.where(keep, 1.0, st.mass))
         if st.dynamic:

@@ -238,10 +238,10 @@ class Simulation:
     def nodal_state(self, node_index, S):
         """G&W step 1 (eq. 2-4): lumped mass, v_g(t), a_g(t) and Fext_g on
         owned dofs."""
-        p, grid, dim = self.particles, self.grid, self.dim
+        p, grid = self.particles, self.grid
         nloc = grid.n_local_nodes
         m = p["mass"]
-        mass = grid.sum_to_owned(np.repeat(particle_to_grid(node_index, S, m, nloc)[:, None], dim, 1))
+        mass = grid.sum_scalar_to_owned(particle_to_grid(node_index, S, m, nloc))
         momentum = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * p["v"], nloc))
         mass_acc = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * p["a"], nloc))
         fext = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * self.gravity, nloc))
@@ -265,9 +265,9 @@ class Simulation:
         node_index, S, G, (order, starts) = self.footprint()
         mass, velocity, acceleration, fext = self.nodal_state(node_index, S)
         # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
-        weight = self.particles["mass"][:, None] * np.sum((G * self.grid.spacing) ** 2, axis=2)
-        stiffness_weight = self.grid.sum_to_owned(np.repeat(
-            scatter(node_index, weight, self.grid.n_local_nodes)[:, None], self.dim, axis=1))
+        stiffness_weight = self.grid.sum_scalar_to_owned(particle_to_grid(
+            node_index, np.sum((G * self.grid.spacing) ** 2, axis=2), self.particles["mass"],
+            self.grid.n_local_nodes))
         cons = bc.build_constraints(self.grid, self.shape, self.rigid, self.rigid_bodies,
                                     self.boundary, mass, dt, self.mass_floor, stiffness_weight)
         groups = self.material_groups()
