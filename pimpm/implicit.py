@@ -101,8 +101,7 @@ def particle_kinematics(state, u_local):
         u_r = grid_to_particle(state.node_index, state.S, u_local)[:, 0]
         F_inc[:, 2, 2] = 1.0 + u_r / state.radius
     F = np.matmul(F_inc, state.F_n)
-    dim = state.G.shape[2]
-    J_inc = smallmat.det(F_inc[:, :dim, :dim])
+    J_inc = smallmat.det(F_inc)        # full 3x3: an axisymmetric hoop stretch can invert too
     return F_inc, F, int(np.sum(~(J_inc > 0.0)))
 
 

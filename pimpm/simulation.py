@@ -444,7 +444,7 @@ class Simulation:
         if self.axisymmetric:
             F_inc[:, 2, 2] = 1.0 + dt * grid_to_particle(node_index, S, v_local)[:, 0] / p["x"][:, 0]
         F = np.matmul(F_inc, p["F"])
-        if len(F) and not np.all(smallmat.det(F_inc[:, :self.dim, :self.dim]) > 0):
+        if len(F) and not np.all(smallmat.det(F_inc) > 0):     # full 3x3 (hoop stretch)
             return False
         sigma = np.zeros((len(F), 3, 3))
         history = self.particle_history()
