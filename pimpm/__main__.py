@@ -79,12 +79,14 @@ def main(argv=None):
         return fail("missing INPUT.yaml: see python -m pimpm --help")
 
     from .config import ConfigError, load_config
-    from .driver import UsageError, run, summary
     try:
         config = load_config(args.input)
     except ConfigError as err:
         return fail(str(err))
-    from .simulation import Simulation, SetupError
+    from .analysis import run
+    from .errors import SetupError, UsageError
+    from .simulation import Simulation
+    from .summary import summary
     try:
         if args.check:
             sim = Simulation(config, comm)

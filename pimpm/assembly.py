@@ -22,7 +22,7 @@ strain) only the in-plane components enter.
 """
 import numpy as np
 
-from . import smallmat
+from .materials import tensors
 
 
 def deformation_increment(grad_u):
@@ -37,8 +37,8 @@ def incremental_first_piola(sigma, F_inc, dim):
     """In-plane part of P = J_inc sigma F_inc^-T, (n, dim, dim). J_inc is the
     full 3x3 determinant (in plane stress F_inc[2,2] is the thickness stretch)."""
     F2 = F_inc[:, :dim, :dim]
-    J_inc = smallmat.det(F_inc)
-    F_inv_T = np.transpose(smallmat.inv(F2), (0, 2, 1))
+    J_inc = tensors.det(F_inc)
+    F_inv_T = np.transpose(tensors.inv(F2), (0, 2, 1))
     return J_inc[:, None, None] * np.matmul(sigma[:, :dim, :dim], F_inv_T)
 
 
@@ -50,7 +50,7 @@ def internal_force_pairs(P, G, volume):
 def current_gradients(F_inc, G):
     """Shape-function gradients on the deformed grid, g = F_inc^-T G, (n, nn, dim)."""
     dim = G.shape[2]
-    F_inv = smallmat.inv(F_inc[:, :dim, :dim])
+    F_inv = tensors.inv(F_inc[:, :dim, :dim])
     return np.matmul(G, F_inv)
 
 
@@ -67,7 +67,7 @@ def element_tangents(sigma, c, F_inc, G, volume):
     """Per-particle stiffness blocks (n, nn*dim, nn*dim): material + geometric
     stiffness of G&W step 2 (row index i*dim + a, column j*dim + b)."""
     n, nn, dim = G.shape
-    J_inc = smallmat.det(F_inc)            # full 3x3: thickness change in plane stress
+    J_inc = tensors.det(F_inc)            # full 3x3: thickness change in plane stress
     v = volume * J_inc
     g = current_gradients(F_inc, G)
     a = spatial_tangent(sigma, c, dim)
@@ -83,7 +83,7 @@ def hoop_force_pairs(sigma, F_inc, S, volume, radius):
     """Axisymmetric hoop term of the internal force (radial component):
     V_p P_thth S_ip / r_p with P_thth = J_inc sigma_thth / F_inc_thth (r_p
     the radius at t, where the grid is reset), (n, nn)."""
-    J_inc = smallmat.det(F_inc)
+    J_inc = tensors.det(F_inc)
     P_hoop = J_inc * sigma[:, 2, 2] / F_inc[:, 2, 2]
     return (volume * P_hoop / radius)[:, None] * S
 
@@ -93,7 +93,7 @@ def hoop_tangents(sigma, c, F_inc, G, S, volume, radius):
     hoop strain increment du_r S_j / r couples with the in-plane gradients
     through c_ab22, c_22bd and c_2222 + sigma_22 (r the current radius)."""
     n, nn, dim = G.shape
-    v = volume * smallmat.det(F_inc)
+    v = volume * tensors.det(F_inc)
     g = current_gradients(F_inc, G)
     r = radius * F_inc[:, 2, 2]
     w = S / r[:, None]                                       # (n, nn): hoop "gradient"

@@ -1,4 +1,4 @@
-"""Particle storage, seeding and migration between MPI ranks.
+"""Particle storage and migration between MPI ranks (seeding: pimpm/seeding.py).
 
 Particles are plain numpy arrays (one dict of fields per set) living on the
 rank that owns their cell (see :mod:`pimpm.grid`). After every step they are
@@ -41,68 +41,6 @@ class ParticleSet:
         return comm.allreduce(local, op=MPI.SUM)
 
 
-def _inside_geometry(points, geometry):
-    if geometry["type"] == "box":
-        lo, hi = np.asarray(geometry["lower"]), np.asarray(geometry["upper"])
-        return np.all((points >= lo) & (points <= hi), axis=1)
-    if geometry["type"] == "ball":
-        c = np.asarray(geometry["center"])
-        return np.sum((points - c) ** 2, axis=1) <= geometry["radius"] ** 2
-    if geometry["type"] == "cylinder":
-        lo, hi = np.asarray(geometry["lower"]), np.asarray(geometry["upper"])
-        in_box = np.all((points >= lo) & (points <= hi), axis=1)
-        radial = [d for d in range(points.shape[1]) if d != "xyz".index(geometry["axis"])]
-        c = np.asarray(geometry["center"])[radial]
-        return in_box & (np.sum((points[:, radial] - c) ** 2, axis=1) <= geometry["radius"] ** 2)
-    raise ValueError(f"unknown geometry type {geometry['type']!r}")
-
-
-def _bounding_box(geometry):
-    if geometry["type"] in ("box", "cylinder"):
-        return np.asarray(geometry["lower"], float), np.asarray(geometry["upper"], float)
-    c, r = np.asarray(geometry["center"], float), float(geometry["radius"])
-    return c - r, c + r
-
-
-def seed_body(grid, geometry, particles_per_cell, body_index, id_offset):
-    """Seed particles of one body in the cells this rank owns.
-
-    Each cell overlapping the body's bounding box gets a regular lattice of
-    ``particles_per_cell`` points per axis at sub-cell centres; points inside
-    the geometry are kept. Returns ``(x, volume0, id)``; the id is a function of
-    the global cell and sub-cell index only, so it does not depend on the
-    number of ranks.
-    """
-    dim = grid.dim
-    ppc = np.asarray(particles_per_cell, dtype=np.int64)
-    n_sub = int(np.prod(ppc))
-    lo, hi = _bounding_box(geometry)
-    c_lo = np.clip(np.floor((lo - grid.lower) / grid.spacing).astype(np.int64), 0, grid.cells)
-    c_hi = np.clip(np.ceil((hi - grid.lower) / grid.spacing).astype(np.int64), 0, grid.cells)
-    c_lo = np.maximum(c_lo, grid.owned_cell_start)
-    c_hi = np.minimum(c_hi, grid.owned_cell_end)
-    if np.any(c_hi <= c_lo):
-        return np.zeros((0, dim)), np.zeros(0), np.zeros(0, dtype=np.int64)
-    cell_axes = [np.arange(a, b) for a, b in zip(c_lo, c_hi)]
-    cells = np.stack([m.ravel() for m in np.meshgrid(*cell_axes, indexing="ij")], axis=1)
-    sub_axes = [np.arange(p) for p in ppc]
-    subs = np.stack([m.ravel() for m in np.meshgrid(*sub_axes, indexing="ij")], axis=1)
-    # sub-cell linear index, x fastest
-    sub_index = subs[:, -1].copy()
-    for d in range(dim - 2, -1, -1):
-        sub_index = sub_index * ppc[d] + subs[:, d]
-    frac = (subs + 0.5) / ppc                                    # (n_sub, dim)
-    x = grid.lower + (cells[:, None, :] + frac[None, :, :]) * grid.spacing
-    pid = grid.global_cell_index(cells)[:, None] * n_sub + sub_index[None, :] + id_offset
-    x = x.reshape(-1, dim)
-    pid = pid.reshape(-1)
-    keep = _inside_geometry(x, geometry)
-    x, pid = x[keep], pid[keep]
-    order = np.argsort(pid, kind="stable")
-    volume0 = np.full(len(x), grid.cell_volume / n_sub)
-    return x[order], volume0[order], pid[order]
-
-
 def migrate(comm, particle_set, destination):
     """Send every particle to rank ``destination[p]`` with one Alltoallv.
 
@@ -136,3 +74,11 @@ def migrate(comm, particle_set, destination):
         fields[name] = received[:, col:col + w].reshape((n_new,) + a.shape[1:]).astype(a.dtype)
         col += w
     particle_set.fields = fields
+
+
+def sort_by_cell(pset, grid):
+    """Order particles by the (owned) cell that holds them, then by id, so
+    that particles touching the same nodes are neighbours in memory."""
+    if len(pset):
+        key = grid.local_cell_index(grid.cell_of(pset["x"]))
+        pset.take(np.lexsort((pset["id"], key)))

@@ -61,10 +61,9 @@ class LinearShape(TensorProductShape):
 
 
 def make_shape(name, dim):
-    shapes = {"linear": LinearShape, "gimp": GIMPShape, "bspline": QuadraticBSplineShape}
-    if name not in shapes:
+    if name not in SHAPES:
         raise ValueError(f"unknown shape functions {name!r}")
-    return shapes[name](dim)
+    return SHAPES[name](dim)
 
 
 def _gimp_1d(r, l):
@@ -177,3 +176,7 @@ class QuadraticBSplineShape(TensorProductShape):
             dw[:, :, d] = dwd[:, o[:, d]] / spacing[d]
         S, G = tensor_product(w, dw)
         return nodes, S, G
+
+
+#: ``grid.shape_functions`` name -> shape-function class
+SHAPES = {cls.name: cls for cls in (LinearShape, GIMPShape, QuadraticBSplineShape)}

@@ -1,5 +1,4 @@
 """PETSc log stages of a step (shown by ``-log_view``)."""
-from petsc4py import PETSc
 
 STAGE_NAMES = ("P2G", "Solve", "Constitutive update", "Assembly", "G2P", "Migration", "Output")
 _STAGES = {}
@@ -8,6 +7,7 @@ _STAGES = {}
 def log_stages():
     """The stages by name, created once per process."""
     if not _STAGES:
+        from petsc4py import PETSc
         for name in STAGE_NAMES:
             _STAGES[name] = PETSc.Log.Stage(name)
     return _STAGES

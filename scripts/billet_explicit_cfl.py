@@ -2,8 +2,9 @@
 """How the billet depends on the time step: the 1 cm billet of
 tests/helpers.py (coarse_billet, Guilkey & Weiss 5.1 at half resolution),
 run quasi-statically at several steps and explicitly at several CFL
-factors. Prints the bulge (the largest x of a billet particle minus the
-20 cm half width) at 10-50% compression.
+factors, with pimpm's own time loop. Prints the bulge (pimpm.measures:
+the edge particle of the symmetry plane) at the first step that reaches
+10-50% compression.
 
     python scripts/billet_explicit_cfl.py [--qs-dt 0.01 0.005 0.0025]
         [--cfl 0.5 0.25 0.1] [--stress-update musl]
@@ -14,32 +15,34 @@ import sys
 
 import petsc4py
 petsc4py.init([])
-from mpi4py import MPI
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 from helpers import coarse_billet                       # noqa: E402
+from pimpm.analysis import Observer, run_to_end         # noqa: E402
 from pimpm.config import validate                       # noqa: E402
-from pimpm.simulation import Simulation, StepFailed     # noqa: E402
+from pimpm.measures import bulge                        # noqa: E402
 
 MARKS = (0.04, 0.08, 0.12, 0.16, 0.2)      # 10-50% compression (platen at 50 cm/s)
+
+
+class BulgeAtMarks(Observer):
+    """The bulge at the first step that reaches each of MARKS."""
+
+    def __init__(self):
+        self.values = []
+
+    def step(self, analysis, info):
+        if len(self.values) < len(MARKS) and analysis.sim.time >= MARKS[len(self.values)] - 1e-12:
+            self.values.append(bulge(analysis.sim))
 
 
 def bulges(time_config):
     raw = coarse_billet(time_config["integrator"])
     raw["time"] = dict(time_config, end_time=0.2)
-    sim = Simulation(validate(raw), MPI.COMM_WORLD)
-    out = []
-    try:
-        while sim.time < 0.2 - 1e-12:
-            dt = sim.stable_time_step() if time_config["integrator"] == "explicit" else time_config["dt"]
-            sim.advance(min(dt, 0.2 - sim.time))
-            if sim.time >= MARKS[len(out)] - 1e-12:
-                p = sim.particles
-                out.append(float(p["x"][p["body"] == 0, 0].max()) - 20.0)
-    except StepFailed as err:
-        return out, sim.step_index, str(err)
-    return out, sim.step_index, ""
+    marks = BulgeAtMarks()
+    sim, stats, _ = run_to_end(validate(raw), observers=[marks])
+    return marks.values, sim.step_index, stats.failure or ""
 
 
 def main():

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Guilkey & Weiss (2003) 5.1 billet validation: runs inputs/billet.yaml and
 inputs/billet_dynamic.yaml (or reads existing results with --reuse), then
-prints and saves the bulge (horizontal displacement of the particle at the
-outer edge on the symmetry plane y = 0) and the platen force at 10-50%
+prints and saves the bulge (pimpm.measures: horizontal displacement of the
+particle at the outer edge on the symmetry plane y = 0) and the platen force at 10-50%
 compression, the Newton residual history of one step, and a figure.
 
     python scripts/billet_validation.py [--ranks 2] [--reuse] [--out docs]
@@ -17,6 +17,9 @@ import h5py
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+from pimpm.measures import bulge_from_fields, edge_particle_id   # noqa: E402
+
 CASES = {"quasi-static": "billet.yaml", "dynamic": "billet_dynamic.yaml",
          "explicit": "billet_explicit.yaml"}
 PLATEN_SPEED = 50.0          # cm/s (pseudo-time in the quasi-static case)
@@ -39,15 +42,12 @@ def analyse(directory):
         steps = sorted(f["steps"])
         times = np.array([f["steps"][s].attrs["time"] for s in steps])
         first = f["steps"][steps[0]]["particles"]
-        body, x0 = first["body"][...], first["position"][:, :2]
-        ids0 = first["id"][...]
-        billet = body == 0
-        on_plane = billet & (x0[:, 1] == x0[billet, 1].min())
-        edge_id = ids0[on_plane][np.argmax(x0[on_plane, 0])]
+        edge_id = edge_particle_id(first["id"][...], first["position"][:, :2], first["body"][...])
         rows = []
+
         def bulge_at(k):
             g = f["steps"][steps[k]]["particles"]
-            return float(g["displacement"][int(np.flatnonzero(g["id"][...] == edge_id)[0]), 0])
+            return bulge_from_fields(g["id"][...], g["displacement"], edge_id)
 
         for fraction in (0.1, 0.2, 0.3, 0.4, 0.5):
             t = fraction * HALF_HEIGHT / PLATEN_SPEED
@@ -76,14 +76,14 @@ def residual_history(input_file, workdir, step):
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     code = f"""
 import petsc4py; petsc4py.init([])
-from mpi4py import MPI
+from pimpm.analysis import Observer, run_to_end
 from pimpm.config import load_config
-from pimpm.simulation import Simulation
-cfg = load_config({os.path.join(ROOT, 'inputs', input_file)!r})
-sim = Simulation(cfg, MPI.COMM_WORLD)
-for k in range({step}):
-    info = sim.advance(cfg['time']['dt'])
-print(list(info['residual_history']))
+class Last(Observer):
+    def step(self, analysis, info):
+        self.residuals = list(info['residual_history'])
+last = Last()
+run_to_end(load_config({os.path.join(ROOT, 'inputs', input_file)!r}), observers=[last], max_steps={step})
+print(last.residuals)
 """
     out = subprocess.run([sys.executable, "-c", code], cwd=workdir, env=env, check=True,
                          capture_output=True, text=True).stdout

@@ -25,9 +25,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 from helpers import coarse_billet                       # noqa: E402
-from shape_comparison import bulge, run                 # noqa: E402
+from shape_comparison import run                        # noqa: E402
 from mpi4py import MPI                                  # noqa: E402
 import numpy as np                                      # noqa: E402
+from pimpm.measures import bulge, midplane_radius       # noqa: E402
 from pimpm.simulation import Simulation                 # noqa: E402
 from test_explicit import bar_config, vibrate           # noqa: E402
 from test_formulations import E, translate, translating_disk   # noqa: E402
@@ -75,19 +76,17 @@ def main():
             raw = coarse_billet(integrator)
             raw["time"]["formulation"] = formulation
             sim, r = run(raw)
-            result = f"failed: {r['failed']}" if r["failed"] else (
-                f"bulge {bulge(sim):.3f} cm, platen force {r['forces']['platen'][1]:.4g}")
-            print(f"| billet (1 cm), {integrator} | {formulation} | {r['steps']} ({r['cuts']}) | "
-                  f"{r['newton']} | {sim.time:.4g} | {result} |", flush=True)
+            result = f"failed: {r.failure}" if r.failure else (
+                f"bulge {bulge(sim):.3f} cm, platen force {r.forces['platen'][1]:.4g}")
+            print(f"| billet (1 cm), {integrator} | {formulation} | {r.steps} ({r.cuts}) | "
+                  f"{r.newton} | {sim.time:.4g} | {result} |", flush=True)
     for formulation in ("velocity", "momentum"):
         sim, r = run(upsetting("backward_euler", formulation))
-        p = sim.particles
-        cylinder = p["body"] == 0
-        radius = float(p["x"][cylinder & (p["x"][:, 1] < 1.0), 0].max())
-        result = f"failed: {r['failed']}" if r["failed"] else (
-            f"load {-r['forces']['platen'][1] / 1000:.0f} kN, radius at mid-height {radius:.2f} mm")
-        print(f"| upsetting (1 mm), backward_euler | {formulation} | {r['steps']} ({r['cuts']}) | "
-              f"{r['newton']} | {sim.time:.4g} | {result} |", flush=True)
+        radius = midplane_radius(sim.particles["x"], sim.particles["body"], 1.0)   # 1 mm cells
+        result = f"failed: {r.failure}" if r.failure else (
+            f"load {-r.forces['platen'][1] / 1000:.0f} kN, radius at mid-height {radius:.2f} mm")
+        print(f"| upsetting (1 mm), backward_euler | {formulation} | {r.steps} ({r.cuts}) | "
+              f"{r.newton} | {sim.time:.4g} | {result} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -4,8 +4,9 @@ tests/helpers.py (Guilkey & Weiss 5.1 at 1 cm cells, 50% compression,
 dynamic and quasi-static) and the colliding disks (Sulsky & Kaul 3.1.1,
 Newmark at dt = 0.4) with linear, GIMP and quadratic B-spline shape
 functions, with pimpm's step control. Prints Newton iterations, step cuts,
-the bulge and, for the disks, the largest departure of the total energy
-from its initial value.
+the bulge (pimpm.measures: the edge particle of the symmetry plane) and,
+for the disks, the largest departure of the total energy from its initial
+value.
 
     python scripts/shape_comparison.py [--shapes linear gimp bspline]
 """
@@ -17,50 +18,25 @@ import sys
 import petsc4py
 petsc4py.init([])
 import yaml
-from mpi4py import MPI
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 from helpers import coarse_billet                       # noqa: E402
+from pimpm.analysis import run_to_end                   # noqa: E402
 from pimpm.config import validate                       # noqa: E402
-from pimpm.driver import TimeStepControl                # noqa: E402
-from pimpm.simulation import Simulation, StepFailed     # noqa: E402
+from pimpm.measures import bulge                        # noqa: E402
 
 
 def run(raw):
-    """Run to end_time with pimpm's own step control (failed steps halved and
-    retried, dt grown back after easy steps). Returns the simulation and a
-    dict: steps, cuts, Newton iterations, the largest relative departure of
-    the total energy from its start, the last step's forces, and ``failed``
-    (the message, or None)."""
-    sim = Simulation(validate(raw), MPI.COMM_WORLD)
-    control = TimeStepControl(sim.config["time"])
-    e0 = sim.kinetic_energy() + sim.strain_energy()
-    stats = {"newton": 0, "cuts": 0, "energy": 0.0, "forces": {}, "failed": None}
-    while not control.done(sim.time):
-        try:
-            info = sim.advance(control.next_dt(sim.time))
-        except StepFailed as err:
-            if not control.failed():
-                stats["failed"] = str(err)[:80]
-                break
-            continue
-        stats["cuts"] += control.succeeded(info["newton_iterations"])
-        stats["newton"] += info["newton_iterations"]
-        stats["forces"] = info["forces"]
-        if e0 > 0:
-            departure = abs(info["kinetic_energy"] + info["strain_energy"] - e0) / e0
-            stats["energy"] = max(stats["energy"], departure)
-    stats["steps"] = sim.step_index
-    if sim.solver is not None:
-        sim.solver.destroy()
+    """Run to end_time with pimpm's own loop and step control (failed steps
+    halved and retried, dt grown back after easy steps). Returns the
+    simulation and its StepStatistics (steps, cuts, Newton iterations, the
+    largest relative departure of the total energy from its start, the last
+    step's forces, and ``failure``: the message, or None)."""
+    sim, stats, _ = run_to_end(validate(raw))
+    if stats.failure:
+        stats.failure = stats.failure[:80]
     return sim, stats
-
-
-def bulge(sim):
-    """Largest x of a billet particle minus the 20 cm half width."""
-    p = sim.particles
-    return float(p["x"][p["body"] == 0, 0].max()) - 20.0
 
 
 def main():
@@ -77,21 +53,21 @@ def main():
             raw["grid"]["shape_functions"] = shape
             sim, r = run(raw)
             name = f"billet, {integrator}"
-            if r["failed"]:
-                print(f"| {name} | {shape} | {r['steps']} | | | failed: {r['failed']} |", flush=True)
+            if r.failure:
+                print(f"| {name} | {shape} | {r.steps} | | | failed: {r.failure} |", flush=True)
                 continue
-            print(f"| {name} | {shape} | {r['steps']} ({r['cuts']}) | {r['newton']} | "
-                  f"{r['newton'] / r['steps']:.1f} | "
+            print(f"| {name} | {shape} | {r.steps} ({r.cuts}) | {r.newton} | "
+                  f"{r.newton / r.steps:.1f} | "
                   f"bulge at 50% {bulge(sim):.3f} cm |", flush=True)
     for shape in args.shapes:
         raw = copy.deepcopy(disks)
         raw["grid"]["shape_functions"] = shape
         _, r = run(raw)
-        if r["failed"]:
-            print(f"| colliding disks | {shape} | {r['steps']} | | | failed: {r['failed']} |", flush=True)
+        if r.failure:
+            print(f"| colliding disks | {shape} | {r.steps} | | | failed: {r.failure} |", flush=True)
             continue
-        print(f"| colliding disks, Newmark dt 0.4 | {shape} | {r['steps']} ({r['cuts']}) | {r['newton']} | "
-              f"{r['newton'] / r['steps']:.1f} | total energy within {100 * r['energy']:.2f}% |", flush=True)
+        print(f"| colliding disks, Newmark dt 0.4 | {shape} | {r.steps} ({r.cuts}) | {r.newton} | "
+              f"{r.newton / r.steps:.1f} | total energy within {100 * r.energy:.2f}% |", flush=True)
 
 
 if __name__ == "__main__":

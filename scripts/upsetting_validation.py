@@ -24,6 +24,8 @@ import numpy as np
 import yaml
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+from pimpm.measures import midplane_radius               # noqa: E402
 
 
 def case(h, shape="linear"):
@@ -57,11 +59,10 @@ def run(h, ranks, workdir, shape="linear"):
         x, body = last["position"][:, :2], last["body"][...]
         eps_p = last["eq_plastic_strain"][...]
     cyl = body == 0
-    mid = cyl & (x[:, 1] < 2 * h)
     travel = 1000.0 * hist["time"]
     return {"h": h, "steps": int(len(hist)), "newton_per_step": float(hist["newton_iterations"].mean()),
             "step_cuts": int(hist["step_cuts"].sum()), "wall_s": float(hist["wall_time"].sum()),
-            "radius_mid_height_mm": float(x[mid, 0].max()), "final_half_height_mm": float(x[cyl, 1].max()),
+            "radius_mid_height_mm": midplane_radius(x, body, h), "final_half_height_mm": float(x[cyl, 1].max()),
             "max_eq_plastic_strain": float(eps_p[cyl].max()),
             "reduction": (travel / 15.0).tolist(), "force_kN": (-hist["platen_force_y"] / 1000.0).tolist(),
             "x": x[cyl].tolist(), "eps_p": eps_p[cyl].tolist()}

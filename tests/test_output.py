@@ -82,7 +82,7 @@ def _xdmf_times(path):
 
 def test_serial_zero_particles_append_and_overwrite(comm, tmp_path):
     import h5py
-    from pimpm.output import ResultWriter
+    from pimpm.io import ResultWriter
 
     nodes = (4, 3)
     box = ((0, 0), nodes)
@@ -125,7 +125,7 @@ def test_serial_zero_particles_append_and_overwrite(comm, tmp_path):
 
 @pytest.mark.parametrize("case", ["length", "no_position", "box_shape", "not_tiling", "dtype"])
 def test_serial_bad_input_raises_and_writer_survives(comm, tmp_path, case):
-    from pimpm.output import ResultWriter
+    from pimpm.io import ResultWriter
 
     nodes = (4, 3)
     box = ((0, 0), nodes)
@@ -152,7 +152,7 @@ def test_serial_bad_input_raises_and_writer_survives(comm, tmp_path, case):
 def test_serial_3d_layout(comm, tmp_path):
     """3-D grid: x fastest in the file, per-node tensors padded to 9 components."""
     import h5py
-    from pimpm.output import ResultWriter
+    from pimpm.io import ResultWriter
 
     nodes = (3, 2, 4)
     I, J, K = np.meshgrid(*[np.arange(n) for n in nodes], indexing="ij")

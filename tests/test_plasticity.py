@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pimpm.materials import make_material
-from pimpm.small_strain import yield_stress
+from pimpm.materials.small_strain import yield_stress
 
 E, NU = 1000.0, 0.3
 SPEC = {"model": "j2_small_strain", "youngs_modulus": E, "poisson_ratio": NU, "density": 10.0,

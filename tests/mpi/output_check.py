@@ -124,7 +124,7 @@ def grid_box(size, rank, dim):
 
 # ---------------------------------------------------------------- writing
 def write_case(comm, outdir, dim):
-    from pimpm.output import ResultWriter
+    from pimpm.io import ResultWriter
 
     rank, size = comm.Get_rank(), comm.Get_size()
     starts, sizes = grid_box(size, rank, dim)
@@ -314,7 +314,7 @@ def check_case(outdir, dim, size):
 def check_bad_input(comm, outdir):
     """Bad input on the last rank only must raise ValueError on every rank (no hang),
     and the writer must stay usable. Returns mismatch messages (same on all ranks)."""
-    from pimpm.output import ResultWriter
+    from pimpm.io import ResultWriter
 
     rank, size = comm.Get_rank(), comm.Get_size()
     d = os.path.join(outdir, "bad_np%d" % size)

@@ -19,10 +19,8 @@ minor symmetry in general, which the assembly does not assume.
 """
 import numpy as np
 
-I3 = np.eye(3)
-II = np.einsum("ij,kl->ijkl", I3, I3)
-IS = 0.5 * (np.einsum("ik,jl->ijkl", I3, I3) + np.einsum("il,jk->ijkl", I3, I3))
-IDEV = IS - II / 3.0
+from .base import Material, PlasticParameters
+from .tensors import I3, II, IDEV, as_F as _as_F
 
 
 def small_strain(F):
@@ -88,3 +86,69 @@ def j2_return(eps, eps_p, alpha, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0.0):
          - 2.0 * mu * theta_bar[:, None, None, None, None] * np.einsum("pab,pcd->pabcd", unit, unit))
     work = np.sum(s * (eps_p_new - eps_p), axis=(1, 2))
     return sigma, D, eps_p_new, alpha_new, work
+
+
+class SmallStrainElastic(Material):
+    """Linear elasticity in the accumulated small strain (Sulsky & Kaul's
+    bars; the functions above). Not objective: for small rotations."""
+
+    name = "linear_elastic"
+    history = {"strain": (3, 3), "deformation_gradient": (3, 3)}
+
+    def _hooke(self, eps):
+        tr = np.trace(eps, axis1=-2, axis2=-1)[..., None, None]
+        return self.bulk_modulus * tr * I3 + 2.0 * self.shear_modulus * (eps - tr / 3.0 * I3)
+
+    def _strain(self, F, history):
+        if history and "strain" in history:
+            d_eps, F_inc = strain_increment(F, history["deformation_gradient"])
+            return history["strain"] + d_eps, F_inc
+        return small_strain(F), F      # no history: total small strain
+
+    def update(self, F, history, tangent=True):
+        F = _as_F(F)
+        eps, F_inc = self._strain(F, history)
+        sigma = self._hooke(eps)
+        c = None
+        if tangent:
+            D = self.bulk_modulus * II + 2.0 * self.shear_modulus * IDEV
+            c = spatial_tangent(sigma, np.broadcast_to(D, (len(F),) + D.shape), F_inc)
+        return sigma, c, {"strain": eps, "deformation_gradient": F.copy()}
+
+    def _kernel(self, F, tangent):
+        sigma, c, _ = self.update(F, {}, tangent)
+        return sigma, c
+
+    def strain_energy(self, F, history=None):
+        eps = history["strain"] if history else small_strain(_as_F(F))
+        eps_p = history.get("plastic_strain", 0.0) if history else 0.0
+        return 0.5 * np.sum(self._hooke(eps - eps_p) * (eps - eps_p), axis=(-2, -1))
+
+    def _energy(self, F):
+        return self.strain_energy(F)
+
+
+class J2SmallStrain(PlasticParameters, SmallStrainElastic):
+    """Small-strain von Mises plasticity with the bilinear hardening /
+    softening of Sulsky & Kaul eq. 2.1.19 and radial return; history:
+    accumulated strain, plastic strain, equivalent plastic strain, plastic
+    work density."""
+
+    name = "j2_small_strain"
+    history = {"strain": (3, 3), "deformation_gradient": (3, 3), "plastic_strain": (3, 3),
+               "eq_plastic_strain": (), "plastic_work": ()}
+
+    def update(self, F, history, tangent=True):
+        F = _as_F(F)
+        eps, F_inc = self._strain(F, history)
+        n = len(F)
+        eps_p = history.get("plastic_strain", np.zeros((n, 3, 3))) if history else np.zeros((n, 3, 3))
+        alpha = history.get("eq_plastic_strain", np.zeros(n)) if history else np.zeros(n)
+        work0 = history.get("plastic_work", np.zeros(n)) if history else np.zeros(n)
+        sigma, D, eps_p_new, alpha_new, work = j2_return(
+            eps, eps_p, alpha, self.shear_modulus, self.bulk_modulus, self.yield_stress,
+            self.hardening_modulus, self.softening_strain, self.softening_modulus)
+        c = spatial_tangent(sigma, D, F_inc) if tangent else None
+        return sigma, c, {"strain": eps, "deformation_gradient": F.copy(),
+                          "plastic_strain": eps_p_new, "eq_plastic_strain": alpha_new,
+                          "plastic_work": work0 + work}

@@ -12,16 +12,12 @@ f = F F_n^-1 of the step.
 """
 import numpy as np
 
+from . import tensors
+from .base import Material, PlasticParameters
 from .small_strain import yield_stress
+from .tensors import I3, II, IS, as_F as _as_F, outer as _outer
 
-I3 = np.eye(3)
-II = np.einsum("ij,kl->ijkl", I3, I3)
-IS = 0.5 * (np.einsum("ik,jl->ijkl", I3, I3) + np.einsum("il,jk->ijkl", I3, I3))
 SQ23 = np.sqrt(2.0 / 3.0)
-
-
-def _outer(A, B):
-    return A[:, :, :, None, None] * B[:, None, None, :, :]
 
 
 def j2_finite(F, F_n, bbar_n, alpha_n, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0.0, tangent=True):
@@ -80,3 +76,48 @@ def j2_finite(F, F_n, bbar_n, alpha_n, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0
                         + 2.0 * (mu_bar * beta4)[e] * _outer(unit, dev_n2))
         Jc = Jc - np.where(plastic[e], plastic_part, 0.0)
     return sigma, Jc / J[e], bbar, alpha, work
+
+
+class J2FiniteStrain(PlasticParameters, Material):
+    """Finite-strain von Mises plasticity: multiplicative split with the
+    uncoupled neo-Hookean elastic part, isochoric radial return and its
+    consistent tangent (:func:`j2_finite`); Sulsky & Kaul's
+    bilinear hardening / softening."""
+
+    name = "j2_finite_strain"
+    history = {"deformation_gradient": (3, 3), "elastic_left_cauchy_green": (3, 3),
+               "eq_plastic_strain": (), "plastic_work": ()}
+
+    def update(self, F, history, tangent=True):
+        F = _as_F(F)
+        n = len(F)
+        eye = np.broadcast_to(np.eye(3), (n, 3, 3))
+        F_n = history.get("deformation_gradient", eye) if history else eye
+        bbar_n = history.get("elastic_left_cauchy_green", eye) if history else eye
+        alpha_n = history.get("eq_plastic_strain", np.zeros(n)) if history else np.zeros(n)
+        work_n = history.get("plastic_work", np.zeros(n)) if history else np.zeros(n)
+        sigma, c, bbar, alpha, work = j2_finite(
+            F, F_n, bbar_n, alpha_n, self.shear_modulus, self.bulk_modulus, self.yield_stress,
+            self.hardening_modulus, self.softening_strain, self.softening_modulus, tangent)
+        return sigma, c, {"deformation_gradient": F.copy(), "elastic_left_cauchy_green": bbar,
+                          "eq_plastic_strain": alpha, "plastic_work": work_n + work}
+
+    def _kernel(self, F, tangent):
+        sigma, c, _ = self.update(F, {}, tangent)
+        return sigma, c
+
+    def strain_energy(self, F, history=None):
+        """Stored energy of the elastic part: kappa/2 (ln J)^2 + mu/2 (tr bbar_e - 3),
+        with bbar_e made unimodular first: the return map (Simo & Hughes Box
+        9.1) keeps tr bbar_e and lets det bbar_e drift below 1 under plastic
+        flow, which would leave plastic work counted as stored energy."""
+        F = _as_F(F)
+        J = np.linalg.det(F)
+        bbar = history["elastic_left_cauchy_green"] if history else \
+            J[:, None, None] ** (-2.0 / 3.0) * np.matmul(F, np.swapaxes(F, 1, 2))
+        bbar = bbar * tensors.det(bbar)[:, None, None] ** (-1.0 / 3.0)
+        return 0.5 * self.bulk_modulus * np.log(J) ** 2 + 0.5 * self.shear_modulus * (
+            np.trace(bbar, axis1=1, axis2=2) - 3.0)
+
+    def _energy(self, F):
+        return self.strain_energy(F)

@@ -1,0 +1,241 @@
+"""The time loop of a run: step control (failed steps cut and retried) and
+observers that see every step (history, output, progress, statistics).
+The command line and the scripts under ``scripts/`` all run simulations
+through :class:`Analysis`, so none re-implements the loop.
+"""
+import os
+import sys
+import time as wallclock
+
+from .errors import StepFailed
+from .io import History, ResultWriter, prepare_output_directory, write_results
+from .simulation import Simulation
+from .stages import log_stage
+from .step_control import TimeStepControl
+from .summary import summary
+
+
+class Observer:
+    """Sees the run: every method gets the :class:`Analysis` first."""
+
+    def start(self, analysis):
+        """Before the first step."""
+
+    def step(self, analysis, info):
+        """After each successful step (``info``: the step's data, with
+        ``step_cuts`` and ``final`` set)."""
+
+    def cut(self, analysis, failure):
+        """A step failed and is retried at ``analysis.control.dt``."""
+
+    def failed(self, analysis, failure):
+        """A step failed with no cut left: the run stops."""
+
+    def finish(self, analysis, status):
+        """After the loop (status 0 done, 1 numerical failure)."""
+
+    def close(self):
+        """Release files; called even when the run raised."""
+
+
+class Analysis:
+    """Runs ``sim`` to ``time.end_time`` with :class:`TimeStepControl`."""
+
+    def __init__(self, sim, observers=(), control=None):
+        self.sim = sim
+        self.observers = list(observers)
+        self.control = control or TimeStepControl(sim.config["time"])
+        self.failure = None          # the message of the step that stopped the run
+
+    def _notify(self, event, *args):
+        for observer in self.observers:
+            getattr(observer, event)(self, *args)
+
+    def run(self, max_steps=None):
+        """Returns 0 when the end time (or ``max_steps``) was reached, 1 when
+        a step failed with no cut left. Observers are closed in any case."""
+        sim, control = self.sim, self.control
+        status = 0
+        try:
+            self._notify("start")
+            while not control.done(sim.time) and (max_steps is None or sim.step_index < max_steps):
+                if sim.integrator.explicit:
+                    control.set_explicit_step(sim)
+                try:
+                    info = sim.advance(control.next_dt(sim.time))
+                except StepFailed as failure:
+                    if control.failed():
+                        self._notify("cut", failure)
+                        continue
+                    self.failure = str(failure)
+                    self._notify("failed", failure)
+                    status = 1
+                    break
+                info["step_cuts"] = control.succeeded(info["newton_iterations"])
+                info["final"] = control.done(sim.time)
+                self._notify("step", info)
+            self._notify("finish", status)
+        finally:
+            for observer in self.observers:
+                observer.close()
+        return status
+
+
+class HistoryObserver(Observer):
+    """``history.csv``, one row per step."""
+
+    def __init__(self, sim, path):
+        self.history = History(sim.comm, path, [b.name for b in sim.rigid_bodies], sim.dim)
+
+    def step(self, analysis, info):
+        self.history.write(info)
+
+    def close(self):
+        self.history.close()
+
+
+class OutputObserver(Observer):
+    """results.h5 and the XDMF files: the initial state, every ``every``
+    steps, the last step, and after a failure the last good step."""
+
+    def __init__(self, sim, directory, every):
+        grid = sim.grid
+        self.writer = ResultWriter(sim.comm, directory, sim.dim, grid.lower, grid.spacing, grid.nodes)
+        self.every = every
+        self.written = -1
+
+    def _write(self, sim):
+        with log_stage(sim.stages["Output"]):
+            write_results(sim, self.writer)
+        self.written = sim.step_index
+
+    def start(self, analysis):
+        self._write(analysis.sim)
+
+    def step(self, analysis, info):
+        if info["step"] % self.every == 0 or info["final"]:
+            self._write(analysis.sim)
+
+    def finish(self, analysis, status):
+        if status and self.written != analysis.sim.step_index:
+            self._write(analysis.sim)             # keep the last good state
+
+    def close(self):
+        self.writer.close()
+
+
+class ProgressObserver(Observer):
+    """One line per step on rank 0; cuts, failures and the end said."""
+
+    def __init__(self, sim, directory, echo=print):
+        self.rigid_names = [b.name for b in sim.rigid_bodies]
+        self.directory = directory
+        self.root = sim.comm.rank == 0
+        self.echo = echo
+        self.start_time = wallclock.perf_counter()
+
+    def step(self, analysis, info):
+        if self.root:
+            self.echo(progress_line(info, self.rigid_names), flush=True)
+
+    def cut(self, analysis, failure):
+        if self.root:
+            self.echo(f"pimpm: {failure}; cutting the step to {analysis.control.dt:.4g} and retrying")
+
+    def failed(self, analysis, failure):
+        sim = analysis.sim
+        if self.root:
+            print(f"pimpm: error: {failure}, even after {analysis.control.max_cuts} step cuts. "
+                  f"Results up to step {sim.step_index} (t = {sim.time:.6g}) are in {self.directory}.",
+                  file=sys.stderr, flush=True)
+
+    def finish(self, analysis, status):
+        if status == 0 and self.root:
+            self.echo(f"pimpm: finished {analysis.sim.step_index} steps in "
+                      f"{wallclock.perf_counter() - self.start_time:.1f} s; results in "
+                      f"{self.directory}/ (particles.xdmf, grid.xdmf, history.csv)")
+
+
+class StepStatistics(Observer):
+    """Totals for scripts: steps, cuts, Newton iterations, the last step's
+    forces and the largest relative departure of the total energy (kinetic
+    + strain) from its initial value."""
+
+    def __init__(self):
+        self.newton = 0
+        self.cuts = 0
+        self.energy = 0.0
+        self.forces = {}
+        self.energy0 = None
+
+    def start(self, analysis):
+        sim = analysis.sim
+        self.energy0 = sim.kinetic_energy() + sim.strain_energy()
+
+    def step(self, analysis, info):
+        self.cuts += info["step_cuts"]
+        self.newton += info["newton_iterations"]
+        self.forces = info["forces"]
+        if self.energy0 > 0:
+            departure = abs(info["kinetic_energy"] + info["strain_energy"] - self.energy0) / self.energy0
+            self.energy = max(self.energy, departure)
+
+
+def progress_line(info, rigid_names):
+    forces = " ".join(f"{name} F=(" + ", ".join(f"{f:.4e}" for f in info["forces"][name]) + ")"
+                      for name in rigid_names)
+    notes = ""
+    if info["backtracks"] > 0:
+        notes += f"  backtracks {info['backtracks']}"
+    if info["linear_fallbacks"]:
+        notes += f"  direct fallbacks {info['linear_fallbacks']}"
+    if info["step_cuts"]:
+        notes += f"  dt cuts {info['step_cuts']}"
+    if info.get("explicit"):
+        return (f"step {info['step']:5d}  t {info['time']:.5e}  dt {info['dt']:.3e}  "
+                f"kinetic {info['kinetic_energy']:.4e}  strain {info['strain_energy']:.4e}  {forces}  "
+                f"wall {info['wall_time']:.3f} s{notes}")
+    return (f"step {info['step']:5d}  t {info['time']:.5e}  dt {info['dt']:.3e}  "
+            f"newton {info['newton_iterations']:2d}  linear {info['linear_iterations']:4d}  "
+            f"|R| {info['residual_initial']:.3e} -> {info['residual_final']:.3e}  {forces}  "
+            f"wall {info['wall_time']:.2f} s{notes}")
+
+
+def run(config, comm, overwrite=False, echo=print):
+    """Run the whole simulation of a validated configuration with output.
+    Returns 0 on success, 1 on numerical failure (the results up to the
+    last good step are kept)."""
+    directory = config["output"]["directory"]
+    sim = Simulation(config, comm)          # bad solver options fail here, before any output
+    try:
+        prepare_output_directory(comm, directory, overwrite)
+        for line in summary(sim, config):
+            if comm.rank == 0:
+                echo(line)
+        observers = [ProgressObserver(sim, directory, echo),
+                     OutputObserver(sim, directory, config["output"]["every"]),
+                     HistoryObserver(sim, os.path.join(directory, "history.csv"))]
+        return Analysis(sim, observers).run()
+    finally:
+        if sim.solver is not None:
+            sim.solver.destroy()
+
+
+def run_to_end(raw_or_config, comm=None, observers=(), max_steps=None):
+    """For scripts: build a Simulation from a validated config, run it with
+    the library's loop and step control (no files written) and return
+    ``(sim, statistics, status)``; ``statistics`` is a StepStatistics (its
+    ``failure`` the message of a run that stopped, else None). The solver is
+    destroyed; the particles stay readable."""
+    from mpi4py import MPI
+    sim = Simulation(raw_or_config, MPI.COMM_WORLD if comm is None else comm)
+    stats = StepStatistics()
+    analysis = Analysis(sim, [stats] + list(observers))
+    try:
+        status = analysis.run(max_steps=max_steps)
+    finally:
+        if sim.solver is not None:
+            sim.solver.destroy()
+    stats.failure = analysis.failure
+    stats.steps = sim.step_index
+    return sim, stats, status

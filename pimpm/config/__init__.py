@@ -1,0 +1,112 @@
+"""Input file reading and validation for pimpm.
+
+``load_config(path)`` reads a YAML input file and returns the normalized configuration
+dict produced by ``validate(raw)``.  Every problem is reported as a :class:`ConfigError`
+whose message is a single line naming the key path (``bodies[1].geometry.upper``), the
+offending value and what was expected.  The schema is documented in ``docs/INPUT.md``.
+
+The normalized dict has every default filled in, floats as ``float``, integers as ``int``,
+vectors as lists of length ``dim``, and an extra top-level key ``dim`` (2 or 3)::
+
+    {"title": str, "dim": int,
+     "grid": {"lower", "upper", "cells", "shape_functions", "boundary"},
+     "kinematics": str,
+     "materials": {name: {"model", "density", "shear_modulus", "bulk_modulus",
+                          ["youngs_modulus", "poisson_ratio"]}},
+     "bodies": [{"name", "material", "rigid", "geometry", "particles_per_cell",
+                 "velocity", "constrain"}],
+     "time": {"integrator", "dt", "end_time", "gravity"},
+     "solver": {"petsc": {option: str}},
+     "output": {"directory", "every"}}
+"""
+import copy
+import os
+
+import yaml
+
+from .bodies import _validate_bodies, _validate_materials
+from .checks import _MISSING, ROOT, ConfigError, _enum, _fail, _Section
+from .schema import KINEMATICS, TOP_KEYS
+from .sections import _validate_grid, _validate_output, _validate_solver, _validate_time
+from .yaml_input import _index_nodes, _line_for, _yaml_error_message
+
+__all__ = ["ConfigError", "load_config", "validate"]
+
+
+def validate(raw, source_name=None):
+    """Validate a raw (YAML-loaded) config and return a new normalized dict.
+
+    ``source_name`` (the input file's stem) sets the default output directory
+    ``<source_name>_output``; without it the default is ``pimpm_output``.
+    ``raw`` is never modified.  Raises :class:`ConfigError` on the first problem found.
+    """
+    raw = copy.deepcopy(raw)  # never touch the caller's data, never alias it
+    top = _Section(raw, ROOT, TOP_KEYS,
+                   what=f"a mapping with keys among {', '.join(TOP_KEYS)}")
+
+    title = top.optional("title")
+    title = "" if title is _MISSING else title
+    if not isinstance(title, str):
+        _fail("title", title, "a string")
+
+    grid, dim = _validate_grid(top.required("grid", "a mapping with lower, upper, cells"),
+                               "grid")
+
+    kin = top.optional("kinematics")
+    if kin is _MISSING:
+        kin = KINEMATICS[dim][0]
+    else:
+        kin = _enum(kin, "kinematics", KINEMATICS[dim], f" (for dim = {dim})")
+
+    materials = _validate_materials(
+        top.required("materials", "a non-empty mapping of material name -> material spec"),
+        "materials")
+    bodies = _validate_bodies(top.required("bodies", "a non-empty list of bodies"),
+                              "bodies", dim, materials, grid)
+    time = _validate_time(top.required("time", "a mapping with dt and end_time"), "time", dim)
+    solver = _validate_solver(top.optional("solver"), "solver")
+    output = _validate_output(top.optional("output"), "output", source_name)
+
+    return {"title": title, "dim": dim, "grid": grid, "kinematics": kin,
+            "materials": materials, "bodies": bodies, "time": time, "solver": solver,
+            "output": output}
+
+
+def load_config(path):
+    """Read a YAML input file and return ``validate(raw, source_name=<file stem>)``.
+
+    A missing/unreadable file, a YAML syntax error, a duplicated key and every validation
+    problem raise :class:`ConfigError`, prefixed with the file name and, when known,
+    the line (``billet.yaml:12: materials.rubber.density = -1.0: expected ...``).
+    """
+    fname = os.fspath(path)
+    try:
+        with open(fname, "r", encoding="utf-8") as fh:
+            text = fh.read()
+    except FileNotFoundError:
+        raise ConfigError(f"{fname}: file not found: expected an existing YAML input file") \
+            from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{fname}: cannot read file ({err.__class__.__name__}: {err}): "
+                          f"expected a readable UTF-8 YAML input file") from None
+
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        raw = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ConfigError(_yaml_error_message(fname, err)) from None
+
+    lines = {}
+    if node is not None:
+        _index_nodes(node, ROOT, lines, fname, set())
+
+    if raw is None:
+        raise ConfigError(f"{fname}: the file is empty: expected a YAML mapping with the "
+                          f"sections {', '.join(TOP_KEYS)}")
+    stem = os.path.splitext(os.path.basename(fname))[0]
+    try:
+        return validate(raw, source_name=stem)
+    except ConfigError as err:
+        line = _line_for(err.path, lines)
+        where = f"{fname}:{line}" if line else fname
+        raise ConfigError(f"{where}: {err}", path=err.path) from None

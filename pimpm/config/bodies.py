@@ -1,0 +1,209 @@
+"""Validation of materials (each model's parameters from its own table),
+geometries and bodies."""
+from collections.abc import Mapping
+
+from ..materials import MODELS, REQUIRED, elastic_moduli
+from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _fail,
+    _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _positive, _string)
+from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
+    ELASTIC_KEYS, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
+    MODEL_PARAMETER_KEYS)
+
+
+def _validate_material(value, path):
+    sec = _Section(value, path, MATERIAL_KEYS)
+    model = _enum(sec.required("model", _choices(MATERIAL_MODELS)), sec.sub("model"),
+                  MATERIAL_MODELS)
+    density = _positive(sec.required("density", "a positive number"), sec.sub("density"))
+    out = {"model": model, "density": density}
+
+    given = [k for k in ELASTIC_KEYS if sec.has(k)]
+    vals = {}
+    for key in given:
+        if key == "poisson_ratio":
+            expected = "a number strictly between -1 and 0.5"
+            nu = _float(sec.data[key], sec.sub(key), expected)
+            if not -1.0 < nu < 0.5:
+                _fail(sec.sub(key), sec.data[key], expected)
+            vals[key] = nu
+        else:
+            vals[key] = _positive(sec.data[key], sec.sub(key))
+    pairs = "exactly one pair of elastic constants: shear_modulus + bulk_modulus, " \
+            "or youngs_modulus + poisson_ratio"
+    if set(given) == {"shear_modulus", "bulk_modulus"}:
+        out["shear_modulus"] = vals["shear_modulus"]
+        out["bulk_modulus"] = vals["bulk_modulus"]
+    elif set(given) == {"youngs_modulus", "poisson_ratio"}:
+        out["shear_modulus"], out["bulk_modulus"] = elastic_moduli(vals)
+        out["youngs_modulus"] = vals["youngs_modulus"]
+        out["poisson_ratio"] = vals["poisson_ratio"]
+    else:
+        have = ", ".join(given) if given else "no elastic constants"
+        raise ConfigError(f"{path} has {have}: expected {pairs}", path=path)
+    parameters = MODELS[model].parameters          # the model's own parameter table
+    for key, parameter in parameters.items():
+        expected = "a positive number" if parameter.positive else "a number"
+        if parameter.default is REQUIRED:
+            v = sec.required(key, expected)
+        else:
+            v = sec.optional(key)
+            if v is _MISSING:
+                out[key] = parameter.default
+                continue
+        out[key] = _positive(v, sec.sub(key)) if parameter.positive else _float(v, sec.sub(key), expected)
+    for key in MODEL_PARAMETER_KEYS:
+        if key not in parameters and sec.has(key):
+            takers = ", ".join(name for name, m in MODELS.items() if key in m.parameters)
+            _fail(sec.sub(key), sec.data[key], f"{key} only with a model that takes it ({takers})")
+    return out
+
+
+def _validate_materials(value, path):
+    if value is None or not isinstance(value, Mapping) or not value:
+        _fail(path, value, "a non-empty mapping of material name -> material spec")
+    out = {}
+    for name, spec in value.items():
+        if not isinstance(name, str) or not name.strip():
+            _fail(path, name, "material names to be non-empty strings")
+        out[name] = _validate_material(spec, _join(path, name))
+    return out
+
+
+def _validate_geometry(value, path, dim):
+    if not isinstance(value, Mapping):
+        _fail(path, value, f"a mapping with key 'type' ({_choices(GEOMETRY_TYPES)})")
+    if "type" not in value:
+        _fail_missing(_join(path, "type"), _choices(GEOMETRY_TYPES))
+    gtype = _enum(value["type"], _join(path, "type"), GEOMETRY_TYPES)
+    sec = _Section(value, path, GEOMETRY_KEYS[gtype])
+    if gtype in ("box", "cylinder"):
+        lower = _float_vector(sec.required("lower", f"a list of {dim} numbers"),
+                              sec.sub("lower"), dim)
+        upper = _float_vector(sec.required("upper", f"a list of {dim} numbers"),
+                              sec.sub("upper"), dim)
+        for i in range(dim):
+            if not upper[i] > lower[i]:
+                _fail(f"{sec.sub('upper')}[{i}]", upper[i],
+                      f"a number > {sec.sub('lower')}[{i}] = {_fmt(lower[i])}")
+        if gtype == "box":
+            return {"type": "box", "lower": lower, "upper": upper}
+        # cylinder (3D): the part of the box within radius of the axis line through center
+        if dim != 3:
+            _fail(_join(path, "type"), gtype, "a cylinder only in 3D (use a box or a ball in 2D)")
+        axis = _enum(sec.required("axis", _choices(AXES)), sec.sub("axis"), AXES)
+        center = _float_vector(sec.required("center", "a list of 3 numbers"), sec.sub("center"), dim)
+        radius = _positive(sec.required("radius", "a positive number"), sec.sub("radius"))
+        return {"type": "cylinder", "lower": lower, "upper": upper, "axis": axis,
+                "center": center, "radius": radius}
+    center = _float_vector(sec.required("center", f"a list of {dim} numbers"),
+                           sec.sub("center"), dim)
+    radius = _positive(sec.required("radius", "a positive number"), sec.sub("radius"))
+    return {"type": "ball", "center": center, "radius": radius}
+
+
+def _check_inside_grid(geom, path, grid, dim):
+    glo, ghi = grid["lower"], grid["upper"]
+    for i in range(dim):
+        tol = BBOX_RELATIVE_TOLERANCE * (ghi[i] - glo[i])
+        axis = AXES[i]
+        within = f"the grid on axis {axis} ([{_fmt(glo[i])}, {_fmt(ghi[i])}])"
+        if geom["type"] in ("box", "cylinder"):
+            if geom["lower"][i] < glo[i] - tol:
+                _fail(f"{path}.lower[{i}]", geom["lower"][i],
+                      f"a number >= grid.lower[{i}] = {_fmt(glo[i])} (the body must lie "
+                      f"within {within})")
+            if geom["upper"][i] > ghi[i] + tol:
+                _fail(f"{path}.upper[{i}]", geom["upper"][i],
+                      f"a number <= grid.upper[{i}] = {_fmt(ghi[i])} (the body must lie "
+                      f"within {within})")
+        else:
+            c, r = geom["center"][i], geom["radius"]
+            if c - r < glo[i] - tol or c + r > ghi[i] + tol:
+                _fail(path, geom,
+                      f"the ball (center +- radius, here [{_fmt(c - r)}, {_fmt(c + r)}] on "
+                      f"axis {axis}) to lie within {within}")
+
+
+def _validate_body(value, path, dim, materials, grid):
+    sec = _Section(value, path, BODY_KEYS)
+    name = _string(sec.required("name", "a non-empty string"), sec.sub("name"))
+
+    rigid = sec.optional("rigid")
+    rigid = False if rigid is _MISSING else _bool(rigid, sec.sub("rigid"))
+
+    known = ", ".join(materials)
+    material = sec.data.get("material", _MISSING)
+    if material is _MISSING or (material is None and rigid):
+        if not rigid:
+            _fail_missing(sec.sub("material"), f"the name of a material: {known}")
+        material = None
+    else:
+        if not isinstance(material, str) or material not in materials:
+            _fail(sec.sub("material"), material, f"the name of a material: {known}")
+
+    geometry = _validate_geometry(sec.required("geometry", f"a mapping with key 'type' "
+                                                           f"({_choices(GEOMETRY_TYPES)})"),
+                                  sec.sub("geometry"), dim)
+    _check_inside_grid(geometry, sec.sub("geometry"), grid, dim)
+
+    ppc_path = sec.sub("particles_per_cell")
+    ppc = sec.optional("particles_per_cell")
+    if ppc is _MISSING:
+        ppc = [DEFAULT_PARTICLES_PER_CELL] * dim
+    elif isinstance(ppc, (list, tuple)):
+        if len(ppc) != dim:
+            _fail(ppc_path, ppc, f"an integer >= 1 or a list of {dim} integers >= 1")
+        ppc = [_int(n, f"{ppc_path}[{i}]") for i, n in enumerate(ppc)]
+    else:
+        if not _is_int(ppc) or ppc < 1:
+            _fail(ppc_path, ppc, f"an integer >= 1 or a list of {dim} integers >= 1")
+        ppc = [int(ppc)] * dim
+
+    velocity = sec.optional("velocity")
+    velocity = [0.0] * dim if velocity is _MISSING else \
+        _float_vector(velocity, sec.sub("velocity"), dim)
+
+    axes = AXES[:dim]
+    con_path = sec.sub("constrain")
+    if not rigid:
+        if sec.has("constrain"):
+            _fail(con_path, sec.data["constrain"],
+                  "no 'constrain' on a deformable body (it applies only with rigid: true)")
+        constrain = None
+    else:
+        con = sec.optional("constrain")
+        expected = f"a non-empty list of distinct axes among {', '.join(axes)}"
+        if con is _MISSING:
+            constrain = list(axes)
+        else:
+            if not isinstance(con, (list, tuple)) or not con:
+                _fail(con_path, con, expected)
+            seen = set()
+            for i, a in enumerate(con):
+                if not isinstance(a, str) or a not in axes:
+                    _fail(f"{con_path}[{i}]", a, _choices(axes))
+                if a in seen:
+                    _fail(f"{con_path}[{i}]", a, f"{expected} (duplicate {a!r})")
+                seen.add(a)
+            constrain = [a for a in axes if a in seen]
+
+    return {"name": name, "material": material, "rigid": rigid, "geometry": geometry,
+            "particles_per_cell": ppc, "velocity": velocity, "constrain": constrain}
+
+
+def _validate_bodies(value, path, dim, materials, grid):
+    if not isinstance(value, (list, tuple)) or not value:
+        _fail(path, value, "a non-empty list of bodies")
+    bodies, first = [], {}
+    for i, spec in enumerate(value):
+        bpath = f"{path}[{i}]"
+        body = _validate_body(spec, bpath, dim, materials, grid)
+        if body["name"] in first:
+            _fail(f"{bpath}.name", body["name"],
+                  f"a unique body name (already used by {path}[{first[body['name']]}])")
+        first[body["name"]] = i
+        bodies.append(body)
+    if all(b["rigid"] for b in bodies):
+        _fail(path, [b["name"] for b in bodies],
+              "at least one deformable body (rigid: false); all bodies are rigid")
+    return bodies

@@ -1,0 +1,40 @@
+"""The input schema's vocabulary: the keys of every section and the names
+each choice accepts (the swappable pieces' registries give theirs)."""
+from ..integrators import INTEGRATORS as _INTEGRATOR_REGISTRY
+from ..kinematics import KINEMATICS as _KINEMATICS_REGISTRY
+from ..materials import MODELS
+from ..shape import SHAPES
+
+
+FORMULATIONS = ("velocity", "momentum")
+SHAPE_FUNCTIONS = tuple(SHAPES)
+BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
+BOUNDARY_ALIASES = {"symmetry": "roller"}
+KINEMATICS = {2: tuple(k for k in _KINEMATICS_REGISTRY if k != "3d"), 3: ("3d",)}
+MATERIAL_MODELS = tuple(MODELS)
+GEOMETRY_TYPES = ("box", "ball", "cylinder")
+INTEGRATORS = tuple(_INTEGRATOR_REGISTRY)
+STRESS_UPDATES = ("musl", "usl", "usf")
+AXES = ("x", "y", "z")
+DEFAULT_PARTICLES_PER_CELL = 2
+DEFAULT_OUTPUT_DIRECTORY = "pimpm_output"
+BBOX_RELATIVE_TOLERANCE = 1e-12
+
+TOP_KEYS = ("title", "grid", "kinematics", "materials", "bodies", "time", "solver", "output")
+GRID_KEYS = ("lower", "upper", "cells", "shape_functions", "boundary")
+ELASTIC_KEYS = ("shear_modulus", "bulk_modulus", "youngs_modulus", "poisson_ratio")
+#: parameters of all models, in registry order (each model declares its own)
+MODEL_PARAMETER_KEYS = tuple(dict.fromkeys(k for m in MODELS.values() for k in m.parameters))
+MATERIAL_KEYS = ("model", "density") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
+BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
+             "velocity", "constrain")
+GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius"),
+                 "cylinder": ("type", "lower", "upper", "axis", "center", "radius")}
+TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
+             "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
+             "stress_update", "formulation")
+SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc")
+CONVERGENCE_KEYS = ("test", "displacement_tolerance", "energy_tolerance")
+SOLVER_PRESETS = ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free")
+CONVERGENCE_TESTS = ("petsc", "guilkey_weiss")
+OUTPUT_KEYS = ("directory", "every")

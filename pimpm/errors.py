@@ -1,0 +1,15 @@
+"""The exceptions that end a step or a run without a traceback."""
+
+
+class SetupError(Exception):
+    """The problem cannot be set up as given (bad solver option value, a body
+    that gets no particles): reported like bad input, before any output."""
+
+
+class StepFailed(Exception):
+    """A step could not be completed (Newton diverged, a particle inverted or
+    left the grid). The state of the simulation is the last good step."""
+
+
+class UsageError(Exception):
+    """Bad use (existing output directory, ...): exit status 2, nothing written."""

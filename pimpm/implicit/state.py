@@ -1,0 +1,70 @@
+"""What stays fixed while Newton iterates on one implicit step (G&W 3.3
+steps 1-2): the particle footprint on the reset grid, the grid state
+interpolated from the particles, the constraints, the integrator and the
+kinematics of the step."""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class StepState:
+    dt: float
+    integrator: object            # pimpm.integrators.*: inertia, predictor, particle update
+    kinematics: object            # pimpm.kinematics.*: increment, material point, hoop terms
+    node_index: np.ndarray        # (n, nn) ghosted-local node of each (particle, node) pair
+    S: np.ndarray                 # (n, nn) weights at x_p(t)
+    G: np.ndarray                 # (n, nn, dim) gradients at x_p(t)
+    F_n: np.ndarray               # (n, 3, 3) deformation gradient at t
+    volume_n: np.ndarray          # (n,) volume at t
+    material_groups: list         # [(material, particle index array)]
+    group_order: np.ndarray       # particles sorted by the node set they touch
+    group_starts: np.ndarray      # first particle of each group in that order
+    group_nodes: np.ndarray       # (n_groups, nn) ghosted-local nodes of each group
+    mass: np.ndarray              # owned dofs: lumped nodal mass (repeated per component)
+    velocity: np.ndarray          # owned dofs: v_g(t) (eq. 3)
+    acceleration: np.ndarray      # owned dofs: a_g(t)
+    external_force: np.ndarray    # owned dofs: Fext_g(t+dt) (eq. 4)
+    fixed: np.ndarray             # owned dofs: bool, prescribed
+    fixed_value: np.ndarray       # owned dofs: prescribed incremental displacement
+    constraint_scale: float       # diagonal used for prescribed rows
+    extra: dict = field(default_factory=dict)
+
+    radius: np.ndarray = None     # axisymmetric: particle radius at t (None otherwise)
+    history: dict = field(default_factory=dict)   # material history at t (per particle)
+    particle_mass: np.ndarray = None  # (n,) particle masses (momentum formulation)
+    projection_floor: float = 0.0     # nodes with no more mass keep their own u (momentum formulation)
+    previous_force: np.ndarray = None  # owned dofs: Fint(t) - Fext(t), for integrators that use it (HHT)
+
+    @property
+    def dynamic(self):
+        return self.integrator.dynamic
+
+    @property
+    def mass_coefficient(self):
+        """d(inertia)/du per unit mass: 4/dt^2 (trapezoidal), 1/dt^2 (backward Euler)."""
+        return self.integrator.mass_coefficient(self.dt)
+
+    def grid_kinematics(self, u):
+        """v_g(t+dt) and a_g(t+dt) for the incremental displacement u."""
+        return self.integrator.grid_kinematics(u, self.velocity, self.acceleration, self.dt)
+
+    def free_flight(self):
+        """The part of u set by the grid state at t alone (owned dofs)."""
+        return self.integrator.free_flight(self.velocity, self.acceleration, self.dt)
+
+    def predictor(self):
+        """The integrator's initial Newton guess for every dof (owned)."""
+        return self.integrator.predictor(self.velocity, self.acceleration, self.dt)
+
+    def own_value_dofs(self):
+        """Owned dofs that the momentum formulation's projection leaves alone:
+        prescribed ones and those of nodes with (next to) no mass. A particle
+        within round-off of a cell face gives the node across it a mass of
+        ~1e-16 m_p made of round-off: projecting onto it would divide noise by
+        noise (and leave a numerically zero Jacobian column)."""
+        return self.fixed | ~(self.mass > self.projection_floor)
+
+    def inertia(self, u):
+        """M a(t+dt) as a function of u (G&W eq. 16 for the trapezoidal rule)."""
+        return self.mass * self.grid_kinematics(u)[1]

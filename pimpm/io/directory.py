@@ -1,0 +1,34 @@
+"""The output directory: never overwrite results unless asked."""
+import os
+
+from ..errors import UsageError
+from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF
+
+HISTORY_CSV = "history.csv"
+OUTPUT_FILES = (H5_NAME, PARTICLES_XDMF, GRID_XDMF, HISTORY_CSV)
+
+
+def prepare_output_directory(comm, directory, overwrite):
+    """Refuse to overwrite results unless asked; create the directory.
+    Collective; raises UsageError on every rank."""
+    problem = None
+    if comm.rank == 0:
+        existing = [f for f in OUTPUT_FILES if os.path.exists(os.path.join(directory, f))]
+        if os.path.exists(directory) and not os.path.isdir(directory):
+            problem = f"output.directory = {directory!r}: exists and is not a directory"
+        elif existing and not overwrite:
+            problem = (f"output.directory = {directory!r} already holds results "
+                       f"({', '.join(existing)}): expected a new directory "
+                       f"(or pass --overwrite to replace them)")
+    if comm.rank == 0 and problem is None:
+        try:
+            os.makedirs(directory, exist_ok=True)
+            for f in OUTPUT_FILES:
+                if os.path.exists(os.path.join(directory, f)):
+                    os.remove(os.path.join(directory, f))
+        except OSError as err:
+            problem = (f"output.directory = {directory!r}: cannot be created or cleared "
+                       f"({err.strerror}): expected a writable directory path")
+    problem = comm.bcast(problem)
+    if problem:
+        raise UsageError(problem)

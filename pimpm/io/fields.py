@@ -1,0 +1,50 @@
+"""What a simulation writes at an output step: particle fields (material
+particles, then rigid ones) and the grid fields of the last step."""
+import numpy as np
+
+from ..materials import von_mises
+
+
+def particle_fields(sim):
+    p, r = sim.particles, sim.rigid
+    nr = len(r)
+    J = np.linalg.det(p["F"])
+    return {
+        "position": np.concatenate([p["x"], r["x"]]),
+        "displacement": np.concatenate([p["x"] - p["x0"], r["x"] - r["x0"]]),
+        "velocity": np.concatenate([p["v"], r["v"]]),
+        "stress": np.concatenate([p["stress"], np.zeros((nr, 3, 3))]),
+        "von_mises": np.concatenate([von_mises(p["stress"]), np.zeros(nr)]),
+        # sigma_1 - sigma_2 of the in-plane stress (photoelastic fringes, G&W eq. 22)
+        "principal_stress_difference": np.concatenate([np.sqrt(
+            (p["stress"][:, 0, 0] - p["stress"][:, 1, 1]) ** 2 + 4.0 * p["stress"][:, 0, 1] ** 2),
+            np.zeros(nr)]),
+        "J": np.concatenate([J, np.ones(nr)]),
+        "body": np.concatenate([p["body"], r["body"]]),
+        "id": np.concatenate([p["id"], r["id"]]),
+        **{name: np.concatenate([p["h_" + name], np.zeros((nr,) + p["h_" + name].shape[1:])])
+           for name in ("eq_plastic_strain", "plastic_work") if "h_" + name in p},
+    }
+
+
+def grid_fields(sim):
+    """Grid fields of the last step on owned nodes, x axis first (before the
+    first step: the nodal state of the particles)."""
+    grid = sim.grid
+    if sim.last_grid is None:
+        n = grid.n_owned_nodes * sim.dim
+        node_index, S, _, _ = sim.footprint()
+        mass, velocity, acceleration, _ = sim.nodal_state(node_index, S)
+        sim.last_grid = {"mass": mass, "velocity": velocity, "acceleration": acceleration,
+                         "displacement_increment": np.zeros(n)}
+    out = {}
+    for name, values in sim.last_grid.items():
+        view = grid.owned_view(values)
+        out[name] = view[..., 0] if name == "mass" else view
+    return out
+
+
+def write_results(sim, writer):
+    """One output step of ``sim`` through a ResultWriter. Collective."""
+    writer.write_step(sim.step_index, sim.time, particle_fields(sim), grid_fields(sim),
+                      sim.grid.owned_box())

@@ -1,0 +1,41 @@
+"""``history.csv``: one row per step (rank 0 writes; flushed every row)."""
+import csv
+
+
+class History:
+    def __init__(self, comm, path, rigid_names, dim):
+        self.comm = comm
+        self.rigid_names = rigid_names
+        self.dim = dim
+        self.columns = ["step", "time", "dt", "newton_iterations", "linear_iterations",
+                        "backtracks", "linear_fallbacks", "step_cuts",
+                        "residual_initial", "residual_final", "kinetic_energy", "strain_energy",
+                        "total_energy", "external_work"]
+        for name in rigid_names:
+            self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
+        self.columns += ["wall_time"]
+        self.file = None
+        if comm.rank == 0:
+            self.file = open(path, "w", newline="")
+            self.writer = csv.writer(self.file)
+            self.writer.writerow(self.columns)
+            self.file.flush()
+
+    def write(self, info):
+        if self.file is None:
+            return
+        row = [info["step"], repr(info["time"]), repr(info["dt"]), info["newton_iterations"],
+               info["linear_iterations"], info["backtracks"], info["linear_fallbacks"],
+               info["step_cuts"], repr(info["residual_initial"]), repr(info["residual_final"]),
+               repr(info["kinetic_energy"]), repr(info["strain_energy"]),
+               repr(info["kinetic_energy"] + info["strain_energy"]), repr(info["external_work"])]
+        for name in self.rigid_names:
+            row += [repr(float(f)) for f in info["forces"][name]]
+        row += [f"{info['wall_time']:.4f}"]
+        self.writer.writerow(row)
+        self.file.flush()
+
+    def close(self):
+        if self.file is not None:
+            self.file.close()
+            self.file = None

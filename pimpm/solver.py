@@ -1,0 +1,227 @@
+"""PETSc plumbing of the Newton solve (G&W 3.3 steps 3-6): SNES on the DMDA
+with the problem's residual and tangent (:mod:`pimpm.implicit.problem`),
+solver presets, options, the iterative-then-direct fallback and the
+convergence test. Every choice comes from the PETSc options database:
+command line > YAML ``solver.petsc`` > preset > :data:`DEFAULT_SOLVER_OPTIONS`.
+"""
+import atexit
+import weakref
+from contextlib import contextmanager
+
+import numpy as np
+from petsc4py import PETSc
+
+from .convergence import GuilkeyWeissTest
+from .linear import FALLBACK_OPTIONS, PRESETS, FallbackKSP, rigid_body_near_null_space
+from .stages import log_stage
+
+#: program defaults for PETSc options (the preset, then the YAML, then the command line override)
+DEFAULT_SOLVER_OPTIONS = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "bt",
+    "snes_rtol": "1e-10",
+    "snes_atol": "1e-12",        # the residual is dimensionless (Sulsky & Kaul 3.2.2)
+    "snes_max_it": "30",
+}
+
+
+def diagnose_solver_options(config, err):
+    """A one-line message for a PETSc error raised while the solver read its
+    options: names the offending ``*_type`` option when it can find it."""
+    if isinstance(err, ValueError):
+        return str(err)
+    db = PETSc.Options()
+    yaml_options = config["solver"]["petsc"]
+    candidates = dict(yaml_options)
+    candidates.update({k: db.getString(k) for k in ("ksp_type", "pc_type", "snes_type")
+                       if db.hasName(k)})
+    makers = {"ksp_type": PETSc.KSP, "pc_type": PETSc.PC, "snes_type": PETSc.SNES}
+    for name, value in candidates.items():
+        kind = next((k for k in makers if name == k or name.endswith("_" + k)), None)
+        if kind is None:
+            continue
+        obj = makers[kind]().create(comm=PETSc.COMM_SELF)
+        try:
+            obj.setType(value)
+        except PETSc.Error:
+            where = f"solver.petsc.{name}" if yaml_options.get(name) == value else f"-{name}"
+            return f"{where} = {value!r}: expected a {kind.split('_')[0].upper()} type known to PETSc"
+        finally:
+            obj.destroy()
+    return (f"PETSc rejected the solver options (error code {getattr(err, 'ierr', err)}): "
+            f"expected valid option values in solver.petsc and on the command line")
+
+
+class NewtonSolver:
+    """SNES, the tangent matrix made by the problem (exactly preallocated by
+    the DMDA, or a shell for the matrix-free preset), and the solution and
+    residual vectors. ``problem`` is a :class:`pimpm.implicit.StepProblem`."""
+
+    def __init__(self, grid, problem, solver_config, default_options=DEFAULT_SOLVER_OPTIONS,
+                 stages=None):
+        self.grid = grid
+        self.problem = problem
+        self.da = grid.da
+        self.stages = stages or {}
+        db = PETSc.Options()
+        self.preset = db.getString("pimpm_preset", solver_config["preset"])
+        if self.preset not in PRESETS:
+            raise ValueError(f"-pimpm_preset {self.preset}: expected one of {', '.join(PRESETS)}")
+        preset_options, iterative, spd, self.matrix_free = PRESETS[self.preset]
+        if problem.momentum and spd:
+            raise ValueError(f"solver.preset = {self.preset!r}: expected a preset for non-symmetric "
+                             "tangents (gmres-gamg, mumps, jfnk or matrix-free) with "
+                             "time.formulation: momentum (its tangent K R is not symmetric)")
+        self.fallback = None
+        use_fallback = iterative and not self.matrix_free and db.getBool(
+            "pimpm_fallback", solver_config["fallback"])
+        options = dict(default_options)
+        options.update(preset_options)
+        if use_fallback:
+            options.update(FALLBACK_OPTIONS)
+        options.update(solver_config["petsc"])          # the YAML refines the preset
+        self.options = options
+        conv = solver_config["convergence"]
+        test = db.getString("pimpm_convergence_test", conv["test"])
+        self.gw_test = None
+        if test == "guilkey_weiss":
+            self.gw_test = GuilkeyWeissTest(
+                db.getReal("pimpm_gw_displacement_tol", conv["displacement_tolerance"]),
+                db.getReal("pimpm_gw_energy_tol", conv["energy_tolerance"]))
+        elif test != "petsc":
+            raise ValueError(f"-pimpm_convergence_test {test}: expected petsc or guilkey_weiss")
+
+        self.X = self.da.createGlobalVec()
+        self.R = self.da.createGlobalVec()
+        self.J = problem.create_jacobian(self.matrix_free)
+        if spd and not self.matrix_free:
+            self.J.setOption(PETSc.Mat.Option.SPD, True)
+        if iterative and not self.matrix_free:
+            self.J.setNearNullSpace(rigid_body_near_null_space(grid))
+        self.snes = PETSc.SNES().create(comm=self.da.getComm())
+        self.snes.setDM(self.da)
+        self.snes.setFunction(problem.form_residual, self.R)
+        self.snes.setJacobian(problem.form_jacobian, self.J, self.J)
+        if self.gw_test is not None:
+            self.snes.setConvergenceTest(self.gw_test)
+        if use_fallback:
+            ksp = self.snes.getKSP()
+            ksp.setOptionsPrefix("pimpm_outer_")       # the inner solvers read -ksp_*, -pc_*
+            ksp.setType(PETSc.KSP.Type.PYTHON)
+            self.fallback = FallbackKSP()
+            ksp.setPythonContext(self.fallback)
+        with scoped_options(options):
+            self.snes.setFromOptions()
+            if use_fallback:
+                self.snes.getKSP().setUp()
+        self.destroyed = False
+        _LIVE_SOLVERS.add(self)
+
+    def destroy(self):
+        """Free the PETSc objects now (collective); Python contexts held by
+        PETSc (python KSP, shell matrix) must not outlive PetscFinalize."""
+        if self.destroyed:
+            return
+        self.destroyed = True
+        if self.fallback is not None and self.fallback.iterative is not None:
+            self.fallback.iterative.destroy()
+            self.fallback.direct.destroy()
+        for obj in (self.snes, self.J, self.X, self.R):
+            obj.destroy()
+        self.problem.destroy()
+
+    def describe(self):
+        """One line naming the solver (for the run summary)."""
+        ksp = self.snes.getKSP()
+        if self.fallback is not None:
+            inner = self.fallback.iterative
+            linear = (f"{inner.getType()}+{inner.getPC().getType()} with direct fallback "
+                      f"({self.fallback.direct.getType()}+{self.fallback.direct.getPC().getType()})")
+        else:
+            linear = f"{ksp.getType()}+{ksp.getPC().getType()}"
+        test = "Guilkey-Weiss eq. 13" if self.gw_test else "PETSc (rtol/atol/stol)"
+        db = PETSc.Options()
+        line_search = db.getString("snes_linesearch_type", self.options.get("snes_linesearch_type", "bt"))
+        operator = ", matrix-free operator" if self._mf_operator() else ""
+        return (f"preset {self.preset}: SNES {self.snes.getType()} (line search {line_search}"
+                f"{operator}), linear {linear}, convergence {test}")
+
+    def _mf_operator(self):
+        return PETSc.Options().hasName("snes_mf_operator") or "snes_mf_operator" in self.options
+
+    def solve(self, state, initial_guess):
+        """Newton on the incremental grid displacement of ``state``'s step.
+        Returns (u_owned, info)."""
+        problem = self.problem
+        problem.begin(state)
+        fallbacks_before = self.fallback.fallbacks if self.fallback else 0
+        self.X.getArray()[:] = initial_guess
+        self.snes.setConvergenceHistory(length=1000, reset=True)
+        petsc_error = None
+        with log_stage(self.stages.get("Solve")):
+            try:
+                self.snes.solve(None, self.X)
+            except PETSc.Error as err:
+                # e.g. MUMPS solving with a factorization that failed on a
+                # singular tangent: a failed step, cut and retried like the
+                # others, after dropping the preconditioner's factors
+                petsc_error = err
+                self.snes.getKSP().getPC().reset()
+        reason = self.snes.getConvergedReason()
+        norms, lits = self.snes.getConvergenceHistory()
+        its = self.snes.getIterationNumber()
+        linear = self.snes.getLinearSolveIterations()
+        # Residual evaluations beyond one per Newton iteration are line-search
+        # backtracks; with -snes_mf_operator the Krylov products evaluate the
+        # residual too, so backtracks cannot be counted this way (-1).
+        extra = -1 if self._mf_operator() else problem.residual_evaluations - 1 - its
+        if petsc_error is not None:
+            reason = min(int(reason), -1)
+        info = {
+            "reason": int(reason),
+            "reason_name": (_reason_name(reason) if petsc_error is None else
+                            f"PETSc error {petsc_error.ierr} in the linear solve (singular tangent?)"),
+            "converged": reason > 0 and petsc_error is None,
+            "newton_iterations": its,
+            "linear_iterations": linear,
+            "backtracks": int(extra) if extra < 0 else max(0, int(extra)),
+            "linear_fallbacks": (self.fallback.fallbacks - fallbacks_before) if self.fallback else 0,
+            "residual_history": np.array(norms, dtype=float),
+            "inverted": bool(self.grid.comm.allreduce(problem.inverted)),
+        }
+        return self.X.getArray(readonly=True).copy(), info
+
+
+_LIVE_SOLVERS = weakref.WeakSet()
+
+
+@atexit.register
+def _destroy_live_solvers():
+    """Registered after petsc4py's own exit handler, so it runs before
+    PetscFinalize: Python contexts held by PETSc objects must go first."""
+    for solver in list(_LIVE_SOLVERS):
+        solver.destroy()
+
+
+@contextmanager
+def scoped_options(options):
+    """Put program options (defaults, then the YAML ``solver.petsc`` block)
+    into PETSc's database only while a solver reads them, so they never leak
+    into other solvers; options already in the database (the command line)
+    win and are left alone."""
+    db = PETSc.Options()
+    inserted = [key for key in options if not db.hasName(key)]
+    for key in inserted:
+        db.setValue(key, options[key])
+    try:
+        yield
+    finally:
+        for key in inserted:
+            db.delValue(key)
+
+
+def _reason_name(reason):
+    for name in dir(PETSc.SNES.ConvergedReason):
+        if not name.startswith("_") and getattr(PETSc.SNES.ConvergedReason, name) == reason:
+            return name
+    return str(reason)

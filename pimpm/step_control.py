@@ -1,0 +1,51 @@
+"""Step sizes of a run: the ramp, cuts of failed steps, growth after easy
+steps, landing on the end time."""
+
+
+class TimeStepControl:
+    """Step sizes: an optional ramp from ``dt_initial`` up to ``dt`` by at most
+    ``ramp_factor`` per step (Sulsky & Kaul 3.1.1 use 20%); a failed step is
+    cut in half and retried, at most ``max_cuts`` times in a row; after a cut,
+    dt grows back by ``ramp_factor`` after each easy step (at most
+    ``easy_newton_iterations`` Newton iterations). The last step is shortened
+    to land on ``end_time``."""
+
+    def __init__(self, time_config):
+        self.fixed = time_config["dt"]
+        self.target = time_config["dt"]
+        self.dt = time_config["dt_initial"]
+        self.ramp = time_config["ramp_factor"]
+        self.max_cuts = time_config["max_cuts"]
+        self.easy = time_config["easy_newton_iterations"]
+        self.end = time_config["end_time"]
+        self.cuts = 0               # consecutive cuts of the current step
+
+    def set_explicit_step(self, sim):
+        """Explicit steps follow the CFL limit (or the fixed time.dt below it)."""
+        stable = sim.stable_time_step()
+        self.target = stable if self.fixed is None else min(self.fixed, stable / sim.config["time"]["cfl"])
+        if self.cuts == 0:
+            self.dt = self.target
+
+    def done(self, time):
+        return time >= self.end * (1.0 - 1e-12)
+
+    def next_dt(self, time):
+        remaining = self.end - time
+        dt = self.dt
+        # land on end_time exactly, without leaving a sliver for one more step
+        return remaining if dt >= remaining * (1.0 - 1e-9) else dt
+
+    def failed(self):
+        """Cut the step; False when no cut is left."""
+        if self.cuts >= self.max_cuts:
+            return False
+        self.cuts += 1
+        self.dt *= 0.5
+        return True
+
+    def succeeded(self, newton_iterations):
+        cuts, self.cuts = self.cuts, 0
+        if newton_iterations <= self.easy and self.dt < self.target:
+            self.dt = min(self.target, self.dt * self.ramp)
+        return cuts

@@ -1,0 +1,56 @@
+"""The problem summary printed by ``--check`` and at the start of a run."""
+import math
+
+import numpy as np
+
+from .seeding import particles_per_body
+
+
+def step_times(end_time, dt):
+    """Time-step sizes to reach end_time: full steps then a shorter last one."""
+    n = max(1, math.ceil(end_time / dt - 1e-9))
+    sizes = [dt] * n
+    sizes[-1] = end_time - dt * (n - 1)
+    if sizes[-1] <= 1e-9 * dt:
+        sizes.pop()
+    return sizes
+
+
+def explicit_time_step(sim):
+    """Explicit CFL step dx / c for the stiffest material (MPM intro)."""
+    h = float(np.min(sim.grid.spacing))
+    return h / max(m.wave_speed() for m in sim.materials)
+
+
+def summary(sim, config):
+    """Problem summary lines (printed by --check and at the start of a run)."""
+    comm = sim.comm
+    counts = particles_per_body(config, sim.particles, sim.rigid, comm)
+    t = config["time"]
+    steps = step_times(t["end_time"], t["dt"]) if t["dt"] is not None else []
+    cells = "x".join(str(int(c)) for c in sim.grid.cells)
+    lines = [
+        f"pimpm: {config.get('title') or 'untitled'}",
+        f"  grid      {cells} cells, spacing {', '.join(f'{h:g}' for h in sim.grid.spacing)}, "
+        f"{int(np.prod(sim.grid.nodes)) * sim.dim} unknowns, {config['kinematics']}, "
+        f"{config['grid']['shape_functions']} shape functions",
+        f"  ranks     {comm.size} (process grid {'x'.join(str(int(p)) for p in sim.grid.proc_sizes)})",
+    ]
+    for b, n in zip(config["bodies"], counts):
+        kind = "rigid" if b.get("rigid") else f"material {b['material']}"
+        lines.append(f"  body      {b['name']}: {int(n)} particles ({kind})")
+    dt_explicit = explicit_time_step(sim)
+    if t["dt"] is None:
+        lines.append(f"  time      explicit, automatic dt = {t['cfl']:g} x CFL step "
+                     f"(now {t['cfl'] * dt_explicit:.3g}), end {t['end_time']:g}")
+    else:
+        scheme = t["integrator"] + (" (momentum formulation)" if t["formulation"] == "momentum" else "")
+        lines.append(f"  time      {scheme}, dt {t['dt']:g} ({t['dt'] / dt_explicit:.3g} x "
+                     f"explicit CFL step {dt_explicit:.3g}), end {t['end_time']:g}, "
+                     f"{len(steps)} steps")
+    lines.append(f"  output    {config['output']['directory']} every {config['output']['every']} steps")
+    if sim.solver is not None:
+        lines.append(f"  solver    {sim.solver.describe()}")
+    else:
+        lines.append(f"  solver    explicit ({t['stress_update'].upper()}), no linear solves")
+    return lines
