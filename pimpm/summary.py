@@ -44,7 +44,9 @@ def summary(sim, config):
         lines.append(f"  time      explicit, automatic dt = {t['cfl']:g} x CFL step "
                      f"(now {t['cfl'] * dt_explicit:.3g}), end {t['end_time']:g}")
     else:
-        scheme = t["integrator"] + (" (momentum formulation)" if t["formulation"] == "momentum" else "")
+        parameters = ", ".join(f"{k} {t[k]:g}" for k in sim.integrator.parameters)
+        scheme = t["integrator"] + (f" ({parameters})" if parameters else "") \
+            + (" (momentum formulation)" if t["formulation"] == "momentum" else "")
         lines.append(f"  time      {scheme}, dt {t['dt']:g} ({t['dt'] / dt_explicit:.3g} x "
                      f"explicit CFL step {dt_explicit:.3g}), end {t['end_time']:g}, "
                      f"{len(steps)} steps")

@@ -32,7 +32,8 @@ GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "
                  "cylinder": ("type", "lower", "upper", "axis", "center", "radius")}
 TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
-             "stress_update", "formulation")
+             "stress_update", "formulation") + tuple(
+    dict.fromkeys(k for cls in _INTEGRATOR_REGISTRY.values() for k in cls.parameters))
 SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc")
 CONVERGENCE_KEYS = ("test", "displacement_tolerance", "energy_tolerance")
 SOLVER_PRESETS = ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free")

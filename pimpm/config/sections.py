@@ -3,6 +3,7 @@ from collections.abc import Mapping
 
 from .checks import (_MISSING, _Section, _bool, _enum, _fail, _float, _float_vector, _fmt, _int,
     _is_int, _is_number, _join, _optional_mapping, _positive, _string)
+from ..integrators import INTEGRATORS as _INTEGRATORS
 from .schema import (AXES, BOUNDARY_ALIASES, BOUNDARY_TYPES, CONVERGENCE_KEYS, CONVERGENCE_TESTS,
     DEFAULT_OUTPUT_DIRECTORY, FORMULATIONS, GRID_KEYS, INTEGRATORS, OUTPUT_KEYS, SHAPE_FUNCTIONS,
     SOLVER_KEYS, SOLVER_PRESETS, STRESS_UPDATES, TIME_KEYS)
@@ -97,6 +98,29 @@ def _validate_time(value, path, dim):
            "dt_initial": dt_initial, "ramp_factor": ramp, "max_cuts": cuts,
            "easy_newton_iterations": easy, "max_particle_displacement": limit,
            "cfl": cfl, "stress_update": update, "formulation": formulation}
+    out.update(_integrator_parameters(sec, integ))
+    return out
+
+
+def _integrator_parameters(sec, integrator):
+    """The ``time`` keys the chosen integrator declares (pimpm/integrators),
+    each a number in its range; a key of another integrator is refused."""
+    declared = _INTEGRATORS[integrator].parameters
+    out = {}
+    for cls in _INTEGRATORS.values():
+        for key in cls.parameters:
+            if key not in declared and sec.has(key):
+                _fail(sec.sub(key), sec.data[key], f"to be given only with time.integrator: {cls.name}")
+    for key, p in declared.items():
+        value = sec.optional(key)
+        if value is _MISSING:
+            out[key] = p.default
+            continue
+        expected = f"a number in [{p.lower:.6g}, {p.upper:.6g}] ({p.meaning})"
+        x = _float(value, sec.sub(key), expected)
+        if not p.lower - 1e-12 * max(1.0, abs(p.lower)) <= x <= p.upper + 1e-12 * max(1.0, abs(p.upper)):
+            _fail(sec.sub(key), value, expected)
+        out[key] = min(max(x, p.lower), p.upper)      # -0.3333333333 stands for -1/3
     return out
 
 

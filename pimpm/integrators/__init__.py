@@ -15,15 +15,12 @@ from .explicit import Explicit
 from .newmark import Newmark
 from .quasi_static import QuasiStatic
 
-#: ``time.integrator`` name -> (class, {time key: constructor argument})
-INTEGRATORS = {
-    "newmark": (Newmark, {}),
-    "quasi_static": (QuasiStatic, {}),
-    "explicit": (Explicit, {}),
-    "backward_euler": (BackwardEuler, {}),
-}
+#: ``time.integrator`` name -> class (the order is the one error messages list)
+INTEGRATORS = {cls.name: cls for cls in (Newmark, QuasiStatic, Explicit, BackwardEuler)}
 
 
 def make_integrator(time_config):
-    cls, arguments = INTEGRATORS[time_config["integrator"]]
-    return cls(**{arg: time_config[key] for key, arg in arguments.items()})
+    """The integrator named by ``time.integrator``, with the ``time`` keys it
+    declares in its ``parameters`` as constructor arguments."""
+    cls = INTEGRATORS[time_config["integrator"]]
+    return cls(**{key: time_config[key] for key in cls.parameters})

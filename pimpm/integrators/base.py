@@ -7,7 +7,13 @@ particle update of step 7. The Newton step itself (steps 1-8) lives in
 Grid quantities are owned dof arrays: ``v``, ``a`` the grid velocity and
 acceleration at t interpolated from the particles (G&W eq. 3).
 """
+from collections import namedtuple
+
 import numpy as np
+
+#: a parameter an integrator takes from the ``time`` section: its default,
+#: the closed range it must lie in, and what it means (for error messages)
+TimeParameter = namedtuple("TimeParameter", "default lower upper meaning")
 
 
 class ImplicitIntegrator:
@@ -20,6 +26,8 @@ class ImplicitIntegrator:
     dynamic = False
     #: factor of the stiffness and of the internal minus external force in the balance
     stiffness_factor = 1.0
+    #: ``time`` keys this integrator takes (constructor arguments): name -> TimeParameter
+    parameters = {}
 
     def mass_coefficient(self, dt):
         """d a(t+dt) / du: the mass term of the tangent per unit mass."""

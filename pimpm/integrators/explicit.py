@@ -34,6 +34,7 @@ class Explicit:
     name = "explicit"
     explicit = True
     dynamic = True
+    parameters = {}
 
     def check_time_step(self, sim):
         """A fixed ``time.dt`` above the stability limit is refused; returns
