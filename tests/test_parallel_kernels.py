@@ -28,7 +28,12 @@ pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
     (3, "newmark", "2d", "linear", "elastic", "momentum"),
     (2, "backward_euler", "2d", "bspline", "j2", "momentum"),
     (2, "newmark", "2d", "linear", "j2", "axisymmetric momentum"),
-    (2, "newmark", "3d", "linear", "j2finite", "momentum")])
+    (2, "newmark", "3d", "linear", "j2finite", "momentum"),
+    # HHT-alpha: (1 + alpha) K + M / (beta dt^2), and the projection in the momentum formulation
+    (1, "hht", "2d", "linear", "elastic", "default"), (2, "hht", "2d", "bspline", "j2", "default"),
+    (1, "hht", "2d", "gimp", "elastic", "default"),
+    (2, "hht", "3d", "linear", "elastic", "default"), (1, "hht", "2d", "linear", "j2", "axisymmetric"),
+    (2, "hht", "2d", "linear", "elastic", "momentum")])
 def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, shape, material,
                                                        kinematics):
     args = [f"{HERE}/mpi/jacobian_check.py", integrator, dim, shape, material]

@@ -58,6 +58,8 @@ if three_d:
     ]
     raw["time"]["gravity"] = [0.0, 0.0, -981.0]
 raw["grid"]["shape_functions"] = shape
+if integrator == "hht":                  # Hilber-Hughes-Taylor: tangent (1 + alpha) K + M / (beta dt^2)
+    raw["time"]["alpha"] = -0.2
 if momentum:                             # Sulsky & Kaul 3.2.1: non-symmetric tangent K R
     raw["time"]["formulation"] = "momentum"
     raw["solver"]["preset"] = "gmres-gamg"
