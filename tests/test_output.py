@@ -1,4 +1,4 @@
-"""Tests for pimpm.output.ResultWriter (HDF5 + XDMF result files).
+"""Tests for pimpm.io.ResultWriter (HDF5 + XDMF result files).
 
 The parallel cases run tests/mpi/output_check.py under mpiexec with 1, 2 and 3 ranks
 (3 ranks oversubscribe the 2-core machines); the script checks every written value.

@@ -12,12 +12,19 @@ vectors as lists of length ``dim``, and an extra top-level key ``dim`` (2 or 3):
      "grid": {"lower", "upper", "cells", "shape_functions", "boundary"},
      "kinematics": str,
      "materials": {name: {"model", "density", "shear_modulus", "bulk_modulus",
-                          ["youngs_modulus", "poisson_ratio"]}},
+                          ["youngs_modulus", "poisson_ratio"], <the model's parameters>}},
      "bodies": [{"name", "material", "rigid", "geometry", "particles_per_cell",
                  "velocity", "constrain"}],
-     "time": {"integrator", "dt", "end_time", "gravity"},
-     "solver": {"petsc": {option: str}},
+     "time": {"integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
+              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
+              "stress_update", "formulation", <the integrator's parameters>},
+     "solver": {"preset", "fallback", "convergence", "petsc": {option: str}},
      "output": {"directory", "every"}}
+
+Modules: :mod:`.schema` (the keys and names), :mod:`.checks` (the error and the
+value checks), :mod:`.sections` (grid, time, solver, output), :mod:`.bodies`
+(materials, geometries, bodies), :mod:`.yaml_input` (YAML helpers). A model's
+and an integrator's own parameters come from their registries.
 """
 import copy
 import os

@@ -3,7 +3,7 @@ the plasticity parameters shared by the J2 models.
 
 Every model declares the parameters it takes beyond the elastic constants
 and the density (``parameters``: name -> :data:`Parameter`);
-the input schema (``pimpm/config.py``) and the factory
+the input schema (``pimpm/config/``) and the factory
 (:func:`pimpm.materials.make_material`) both read that table.
 
 Tangent convention. ``c`` is the spatial elasticity tensor

@@ -1,4 +1,4 @@
-"""End-to-end check of pimpm.output.ResultWriter; run under mpiexec (any number of ranks).
+"""End-to-end check of pimpm.io.ResultWriter; run under mpiexec (any number of ranks).
 
     mpiexec -n 3 --oversubscribe python tests/mpi/output_check.py OUTDIR
 
