@@ -107,6 +107,25 @@ def hoop_tangents(sigma, c, F_inc, G, S, volume, radius):
     return (K * v[:, None, None, None, None]).reshape(n, nn * dim, nn * dim)
 
 
+def group_by_node_set(node_index, n_nodes):
+    """Group particles that touch the same list of nodes (one element matrix
+    per group): ``order`` sorts particles by group, ``starts`` marks the
+    first of each group in that order. Groups are ordered by their first and
+    last node, then by the whole list: the first and last node alone do not
+    identify the list where a stencil is clipped at the grid boundary (an
+    axis one cell wide with GIMP or B-splines: nodes (0, 0, 1) and (0, 1, 1)).
+    Within a group, particles keep their order."""
+    n, nn = node_index.shape
+    if n == 0:
+        return np.zeros(0, int), np.zeros(0, int)
+    key = node_index[:, 0] * n_nodes + node_index[:, -1]
+    # np.lexsort sorts by its last key first, and is stable
+    order = np.lexsort(tuple(node_index[:, j] for j in range(nn - 1, -1, -1)) + (key,))
+    rows = node_index[order]
+    starts = np.flatnonzero(np.r_[True, np.any(rows[1:] != rows[:-1], axis=1)])
+    return order, starts
+
+
 def sum_by_group(values, starts):
     """Sum consecutive rows of ``values`` that share a group (particles sorted
     by cell; ``starts`` = first row of each group)."""

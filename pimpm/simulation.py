@@ -12,7 +12,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import bc, energy
+from . import assembly, bc, energy
 from .errors import SetupError, StepFailed
 from .grid import Grid
 from .implicit import StepProblem, StepState, constraint_scale, residual_scale
@@ -134,14 +134,7 @@ class Simulation:
         nodes, S, G = self.shape.evaluate(p["x"], self.grid.lower, self.grid.spacing,
                                           self.grid.cells, self.particle_half_sizes())
         node_index = self.grid.local_node_index(nodes)
-        # the first and last nodes identify the node set (also where GIMP's
-        # stencil is clipped at the grid boundary)
-        key = node_index[:, 0] * self.grid.n_local_nodes + node_index[:, -1]
-        order = np.argsort(key, kind="stable")
-        sorted_key = key[order]
-        starts = (np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
-                  if len(key) else np.zeros(0, int))
-        return node_index, S, G, (order, starts)
+        return node_index, S, G, assembly.group_by_node_set(node_index, self.grid.n_local_nodes)
 
     def particle_half_sizes(self):
         """Current particle-domain half sizes for GIMP: the initial h/(2 ppc)

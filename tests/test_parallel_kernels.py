@@ -33,7 +33,12 @@ pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
     (1, "hht", "2d", "linear", "elastic", "default"), (2, "hht", "2d", "bspline", "j2", "default"),
     (1, "hht", "2d", "gimp", "elastic", "default"),
     (2, "hht", "3d", "linear", "elastic", "default"), (1, "hht", "2d", "linear", "j2", "axisymmetric"),
-    (2, "hht", "2d", "linear", "elastic", "momentum")])
+    (2, "hht", "2d", "linear", "elastic", "momentum"),
+    # axes one cell wide: clipped GIMP and B-spline stencils (particles grouped by their whole node list)
+    (1, "newmark", "2d", "linear", "elastic", "onecell"), (2, "newmark", "2d", "gimp", "elastic", "onecell"),
+    (2, "quasi_static", "2d", "bspline", "elastic", "onecell"),
+    (2, "quasi_static", "3d", "linear", "elastic", "onecell"),
+    (1, "newmark", "3d", "gimp", "elastic", "onecell"), (2, "newmark", "3d", "bspline", "elastic", "onecell")])
 def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, shape, material,
                                                        kinematics):
     args = [f"{HERE}/mpi/jacobian_check.py", integrator, dim, shape, material]

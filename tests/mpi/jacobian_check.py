@@ -21,9 +21,10 @@ integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
 plastic = len(sys.argv) > 4 and sys.argv[4] in ("j2", "j2finite")
-options = sys.argv[5:]                    # a kinematics name and/or "momentum"
+options = sys.argv[5:]                    # a kinematics name, "momentum" and/or "onecell"
 momentum = "momentum" in options
-kinematics = next((a for a in options if a not in ("momentum", "default")), None)
+one_cell = "onecell" in options           # a column one cell wide in x (and y in 3D)
+kinematics = next((a for a in options if a not in ("momentum", "default", "onecell")), None)
 comm = MPI.COMM_WORLD
 raw = {
     "grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8],
@@ -57,6 +58,23 @@ if three_d:
          "geometry": {"type": "box", "lower": [0, 0, 1.5], "upper": [2.0, 2.0, 2.0]}},
     ]
     raw["time"]["gravity"] = [0.0, 0.0, -981.0]
+if one_cell:   # GIMP and B-spline stencils are clipped on both sides of the one-cell axis
+    raw["grid"] = {"lower": [0.0, 0.0], "upper": [0.5, 4.0], "cells": [1, 16],
+                   "boundary": {"xmin": "roller", "ymin": "roller"}}
+    raw["bodies"] = [
+        {"name": "a", "material": "m", "geometry": {"type": "box", "lower": [0, 0], "upper": [0.5, 2]},
+         "particles_per_cell": 2, "velocity": [0.5, 2.0]},
+        {"name": "b", "material": "c", "geometry": {"type": "box", "lower": [0, 2], "upper": [0.5, 3]},
+         "particles_per_cell": 2},
+        {"name": "platen", "rigid": True, "particles_per_cell": 2, "velocity": [0.0, -10.0],
+         "geometry": {"type": "box", "lower": [0, 3], "upper": [0.5, 3.5]}}]
+    if three_d:
+        raw["grid"] = {"lower": [0.0, 0.0, 0.0], "upper": [0.5, 0.5, 4.0], "cells": [1, 1, 16],
+                       "boundary": {"xmin": "roller", "ymin": "roller", "zmin": "roller"}}
+        for body, (z0, z1) in zip(raw["bodies"], ((0, 2), (2, 3), (3, 3.5))):
+            body["geometry"] = {"type": "box", "lower": [0, 0, z0], "upper": [0.5, 0.5, z1]}
+        raw["bodies"][0]["velocity"] = [0.5, -0.5, 2.0]
+        raw["bodies"][2]["velocity"] = [0.0, 0.0, -10.0]
 raw["grid"]["shape_functions"] = shape
 if integrator == "hht":                  # Hilber-Hughes-Taylor: tangent (1 + alpha) K + M / (beta dt^2)
     raw["time"]["alpha"] = -0.2
