@@ -169,19 +169,20 @@ def expected_summary(path):
             bodies[b["name"]] = math.prod(
                 round((float(geo["upper"][i]) - float(geo["lower"][i])) / h[i] * ppc[i])
                 for i in range(dim))
-        else:   # a ball or a cylinder: count the sub-cell lattice points inside it
+        else:   # a ball or a cylinder: count the sub-cells (pimpm/seeding.py)
             axes = [float(g["lower"][i]) + (np.arange(g["cells"][i] * ppc[i]) + 0.5) * h[i] / ppc[i]
                     for i in range(dim)]
             points = np.stack([m.ravel() for m in np.meshgrid(*axes, indexing="ij")], axis=1)
-            if geo["type"] == "ball":
+            half = np.array([h[i] / ppc[i] / 2.0 for i in range(dim)])
+            if geo["type"] == "ball":          # centre strictly inside
                 inside = np.sum((points - np.array(geo["center"], float)) ** 2, axis=1) \
-                    <= float(geo["radius"]) ** 2
-            else:
+                    < float(geo["radius"]) ** 2
+            else:                              # overlaps the box, centre strictly inside radially
                 radial = [d for d in range(dim) if d != "xyz".index(geo["axis"])]
-                inside = np.all((points >= np.array(geo["lower"], float))
-                                & (points <= np.array(geo["upper"], float)), axis=1)
+                inside = np.all((points + half > np.array(geo["lower"], float) + 1e-9 * half)
+                                & (points - half < np.array(geo["upper"], float) - 1e-9 * half), axis=1)
                 inside &= np.sum((points[:, radial] - np.array(geo["center"], float)[radial]) ** 2,
-                                 axis=1) <= float(geo["radius"]) ** 2
+                                 axis=1) < float(geo["radius"]) ** 2
             bodies[b["name"]] = int(inside.sum())
     if "dt" not in t:           # explicit with an automatic step
         return "x".join(str(c) for c in g["cells"]), bodies, None, None
@@ -588,10 +589,11 @@ def test_failure_writes_the_last_good_step(failed_runs):
 
 
 def test_body_without_particles_is_bad_input(tmp_path):
-    """A body smaller than the particle spacing would silently vanish."""
+    """A body that holds no sub-cell centre would silently vanish. (A box
+    smaller than a sub-cell gets one particle with its volume.)"""
     with open(BAR) as f:
         raw = yaml.safe_load(f)
-    raw["bodies"][0]["geometry"] = {"type": "box", "lower": [0.41, 0.0], "upper": [0.42, 0.01]}
+    raw["bodies"][0]["geometry"] = {"type": "ball", "center": [0.41, 0.005], "radius": 0.002}
     raw["output"] = {"directory": "tiny_out"}
     write_yaml(tmp_path / "tiny.yaml", raw)
     proc = run_pimpm(None, ["tiny.yaml"], cwd=tmp_path)
