@@ -7,6 +7,8 @@ scripts and tests that report them.
   with the largest initial x.
 * The upset cylinder's **radius at mid-height** (Sulsky & Kaul 3.2.7): the
   largest radius of its particles within two cells of the symmetry plane.
+* The self-weight column's **stress error**: sigma_yy of every particle
+  against the exact -rho g (L - Y) at its initial height Y, over rho g L.
 """
 import numpy as np
 
@@ -53,3 +55,53 @@ def midplane_radius(x, body, cell_size, body_index=0, comm=None):
 def _max():
     from mpi4py import MPI      # imported here: scripts that only read files need no MPI
     return MPI.MAX
+
+
+def column_stress_error(particles, density, gravity, height, comm=None):
+    """(max, RMS) over all particles of |sigma_yy + rho g (L - Y)| / (rho g L)
+    for a column of height L under gravity g (Y: initial height). Collective
+    with ``comm``."""
+    exact = -density * gravity * (height - particles["x0"][:, 1])
+    error = (particles["stress"][:, 1, 1] - exact) / (density * gravity * height)
+    local = (float(np.max(np.abs(error))) if len(error) else 0.0, float(np.sum(error ** 2)), len(error))
+    if comm is None:
+        worst, squares, count = local
+    else:
+        worst = comm.allreduce(local[0], op=_max())
+        squares, count = comm.allreduce(local[1]), comm.allreduce(local[2])
+    return worst, float(np.sqrt(squares / count))
+
+
+def lattice_j_drift(particles, spacing, region, comm):
+    """How far the stored J = det F of particles started on a regular 2D
+    lattice (spacing ``spacing``) has drifted from the J their positions
+    imply: the mean stored J over the particles whose initial position
+    satisfies ``region`` (and that have all four lattice neighbours),
+    divided by the mean determinant of the finite-difference deformation
+    gradient of the lattice (central differences of the current positions
+    over the initial lattice), minus 1. Collective; every rank gets it."""
+    p = particles
+    mine = (p["x0"], p["x"], np.linalg.det(p["F"]))
+    gathered = comm.gather(mine, root=0)
+    drift = None
+    if comm.rank == 0:
+        x0, x, J = (np.concatenate([g[k] for g in gathered]) for k in range(3))
+        index = np.rint((x0 - x0.min(axis=0)) / spacing).astype(np.int64)
+        width = int(index[:, 1].max()) + 3
+        key = (index[:, 0] + 1) * width + (index[:, 1] + 1)
+        order = np.argsort(key)
+        sorted_key = key[order]
+
+        def neighbour(di, dj):
+            k = key + di * width + dj
+            at = np.clip(np.searchsorted(sorted_key, k), 0, len(k) - 1)
+            return order[at], sorted_key[at] == k
+
+        (e, he), (w, hw), (n, hn), (s, hs) = (neighbour(1, 0), neighbour(-1, 0),
+                                              neighbour(0, 1), neighbour(0, -1))
+        use = region(x0) & he & hw & hn & hs
+        dX = (x[e[use]] - x[w[use]]) / (2.0 * spacing)      # d x / d X
+        dY = (x[n[use]] - x[s[use]]) / (2.0 * spacing)      # d x / d Y
+        J_lattice = dX[:, 0] * dY[:, 1] - dX[:, 1] * dY[:, 0]
+        drift = float(np.mean(J[use]) / np.mean(J_lattice) - 1.0) if np.any(use) else float("nan")
+    return comm.bcast(drift, root=0)

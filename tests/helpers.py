@@ -111,3 +111,20 @@ def run_on_ranks(tmp_path, raw, ranks, timeout=600):
         particles, time = last_particles(out / "results.h5")
         results.append((particles, time, read_history(out / "history.csv")))
     return results
+
+
+def column(cells, shape, youngs_modulus=1.0e6, steps=10):
+    """inputs/column_gravity.yaml (the self-weight column, height 50) with
+    ``cells`` cells along its height (square cells, one cell wide), the given
+    shape functions, Young's modulus and number of pseudo-time steps.
+    Returns the raw input and (density, gravity, height)."""
+    with open(os.path.join(ROOT, "inputs", "column_gravity.yaml")) as f:
+        raw = yaml.safe_load(f)
+    height = float(raw["bodies"][0]["geometry"]["upper"][1])
+    h = height / cells
+    raw["grid"].update(upper=[h, height + h], cells=[1, cells + 1], shape_functions=shape)
+    raw["bodies"][0]["geometry"]["upper"] = [h, height]
+    material = raw["materials"]["soil"]
+    material["youngs_modulus"] = youngs_modulus
+    raw["time"]["dt"] = raw["time"]["end_time"] / steps
+    return raw, (material["density"], -raw["time"]["gravity"][1], height)

@@ -1,0 +1,60 @@
+"""The self-weight column (inputs/column_gravity.yaml): the exact stress is
+sigma_yy = -rho g (L - Y) at each particle's initial height Y. GIMP
+converges at first order; linear shape functions do not once particles
+cross cells (documented in docs/VALIDATION.md, checked here so that a change
+shows); the column is one cell wide, so GIMP and B-spline stencils are
+clipped on both sides."""
+import numpy as np
+import petsc4py
+petsc4py.init([])
+import pytest
+
+from helpers import MPIEXEC, column, run_on_ranks
+from pimpm.analysis import run_to_end
+from pimpm.config import validate
+from pimpm.measures import column_stress_error
+
+
+def stress_error(cells, shape, youngs_modulus=1.0e6):
+    raw, (rho, g, height) = column(cells, shape, youngs_modulus)
+    sim, stats, status = run_to_end(validate(raw))
+    assert status == 0 and sim.step_index == 10, stats.failure
+    return column_stress_error(sim.particles, rho, g, height)
+
+
+@pytest.mark.parametrize("youngs_modulus", [1.0e6, 1.0e4])     # rho g L / E = 0.004 and 4
+def test_gimp_column_converges_at_first_order(youngs_modulus):
+    errors = [stress_error(n, "gimp", youngs_modulus)[0] for n in (10, 20, 40, 80)]
+    assert all(b < a for a, b in zip(errors, errors[1:])), errors
+    order = np.log(errors[0] / errors[-1]) / np.log(8.0)
+    assert 0.8 < order < 1.5, (order, errors)
+    assert errors[-1] < 0.005                 # measured 0.34% (E = 1e6), 0.41% (E = 1e4)
+
+
+def test_shipped_column_input_matches_the_exact_stress():
+    worst, rms = stress_error(40, "gimp")
+    assert worst < 0.01 and rms < 0.008        # measured 0.79% and 0.62% at 40 cells
+
+
+def test_linear_column_does_not_converge():
+    """Exact at the first step (error 1/(4n)) but not after particles cross
+    cells: the maximum error stays above 10% at every resolution."""
+    errors = [stress_error(n, "linear")[0] for n in (20, 40, 80)]
+    assert min(errors) > 0.1, errors
+
+
+def test_bspline_column_rms_converges():
+    rms = [stress_error(n, "bspline")[1] for n in (10, 20, 80)]
+    assert rms[-1] < 0.3 * rms[0] and rms[-1] < 0.005, rms
+
+
+def test_column_same_on_1_and_2_ranks(tmp_path):
+    if MPIEXEC is None:
+        pytest.skip("mpiexec not found")
+    raw, _ = column(40, "gimp")
+    raw["output"] = {"directory": "out"}
+    (p1, t1, h1), (p2, t2, h2) = run_on_ranks(tmp_path, raw, [1, 2])
+    assert t1 == t2 and np.array_equal(p1["id"], p2["id"])
+    scale = np.max(np.abs(p1["stress"]))
+    assert np.max(np.abs(p1["stress"] - p2["stress"])) < 1e-8 * scale
+    assert np.max(np.abs(p1["position"] - p2["position"])) < 1e-8 * 50.0
