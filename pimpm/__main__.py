@@ -1,6 +1,7 @@
 """Command line: ``python -m pimpm INPUT.yaml [--check] [--overwrite] [PETSc options]``."""
 import argparse
 import sys
+import traceback
 
 HELP = """\
 pimpm: parallel implicit Material Point Method (Guilkey & Weiss 2003) on PETSc.
@@ -20,7 +21,8 @@ pimpm's defaults (Newton with backtracking line search, MUMPS LU), e.g.
 
 Output: OUTDIR/results.h5, particles.xdmf and grid.xdmf (open in ParaView),
 history.csv (one row per step). Exit status: 0 done, 1 numerical failure
-(results up to the last good step are kept), 2 bad input or usage.
+(results up to the last good step are kept) or an unexpected error (on any
+rank: every rank stops), 2 bad input or usage.
 """
 
 
@@ -78,6 +80,21 @@ def main(argv=None):
             return 0
         return fail("missing INPUT.yaml: see python -m pimpm --help")
 
+    try:
+        return _run(args, comm, fail)
+    except BaseException as err:     # noqa: B902 - any failure, on any subset of ranks
+        if comm.size == 1 or isinstance(err, SystemExit):
+            raise
+        # This rank cannot rejoin the others, which may be waiting in a
+        # collective call: say why, and stop every rank.
+        sys.stdout.flush()
+        sys.stderr.write(f"pimpm: error on rank {comm.rank} of {comm.size}: unexpected "
+                         f"{type(err).__name__}; stopping all ranks\n{traceback.format_exc()}")
+        sys.stderr.flush()
+        comm.Abort(1)
+
+
+def _run(args, comm, fail):
     from .config import ConfigError, load_config
     try:
         config = load_config(args.input)

@@ -53,7 +53,11 @@ class Analysis:
 
     def run(self, max_steps=None):
         """Returns 0 when the end time (or ``max_steps``) was reached, 1 when
-        a step failed with no cut left. Observers are closed in any case."""
+        a step failed with no cut left; the observers are closed then. An
+        unexpected exception propagates; on several ranks the observers are
+        left open, since closing them is collective and the other ranks may
+        be waiting in another collective (the CLI then stops every rank with
+        MPI_Abort)."""
         sim, control = self.sim, self.control
         status = 0
         try:
@@ -75,10 +79,16 @@ class Analysis:
                 info["final"] = control.done(sim.time)
                 self._notify("step", info)
             self._notify("finish", status)
-        finally:
-            for observer in self.observers:
-                observer.close()
+        except BaseException:
+            if sim.comm.size == 1:
+                self._close()
+            raise
+        self._close()
         return status
+
+    def _close(self):
+        for observer in self.observers:
+            observer.close()
 
 
 class HistoryObserver(Observer):
@@ -207,18 +217,17 @@ def run(config, comm, overwrite=False, echo=print):
     last good step are kept)."""
     directory = config["output"]["directory"]
     sim = Simulation(config, comm)          # bad solver options fail here, before any output
-    try:
-        prepare_output_directory(comm, directory, overwrite)
-        for line in summary(sim, config):
-            if comm.rank == 0:
-                echo(line)
-        observers = [ProgressObserver(sim, directory, echo),
-                     OutputObserver(sim, directory, config["output"]["every"]),
-                     HistoryObserver(sim, os.path.join(directory, "history.csv"))]
-        return Analysis(sim, observers).run()
-    finally:
-        if sim.solver is not None:
-            sim.solver.destroy()
+    prepare_output_directory(comm, directory, overwrite)
+    for line in summary(sim, config):
+        if comm.rank == 0:
+            echo(line)
+    observers = [ProgressObserver(sim, directory, echo),
+                 OutputObserver(sim, directory, config["output"]["every"]),
+                 HistoryObserver(sim, os.path.join(directory, "history.csv"))]
+    status = Analysis(sim, observers).run()
+    if sim.solver is not None:     # (after an exception, the exit handler frees it on every rank)
+        sim.solver.destroy()
+    return status
 
 
 def run_to_end(raw_or_config, comm=None, observers=(), max_steps=None):

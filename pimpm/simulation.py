@@ -12,7 +12,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import assembly, bc, energy
+from . import assembly, bc, energy, faults
 from .errors import SetupError, StepFailed
 from .grid import Grid
 from .implicit import StepProblem, StepState, constraint_scale, residual_scale
@@ -199,12 +199,13 @@ class Simulation:
     def advance(self, dt):
         """One implicit step (G&W section 3.3), or one explicit step. Returns
         a dict of step data. Raises StepFailed, leaving the particles as they were."""
+        faults.checkpoint("step", self.comm.rank, self.step_index + 1)
         if self.integrator.explicit:
             return self.integrator.advance(self, dt)
         t0 = wallclock.perf_counter()
         with log_stage(self.stages["P2G"]):
             state, cons = self.prepare_step(dt)                   # steps 1-2
-        u, info = self.solver.solve(state, self.initial_guess(state))   # steps 3-6
+        u, info = self.solver.solve(state, self.initial_guess(state), self.step_index + 1)   # steps 3-6
         if not info["converged"]:
             why = "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"]
             raise StepFailed(f"Newton did not converge at step {self.step_index + 1} "

@@ -149,11 +149,11 @@ class NewtonSolver:
     def _mf_operator(self):
         return PETSc.Options().hasName("snes_mf_operator") or "snes_mf_operator" in self.options
 
-    def solve(self, state, initial_guess):
-        """Newton on the incremental grid displacement of ``state``'s step.
-        Returns (u_owned, info)."""
+    def solve(self, state, initial_guess, step=0):
+        """Newton on the incremental grid displacement of ``state``'s step
+        (``step``: its number, for messages). Returns (u_owned, info)."""
         problem = self.problem
-        problem.begin(state)
+        problem.begin(state, step)
         fallbacks_before = self.fallback.fallbacks if self.fallback else 0
         self.X.getArray()[:] = initial_guess
         self.snes.setConvergenceHistory(length=1000, reset=True)

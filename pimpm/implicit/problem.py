@@ -15,7 +15,7 @@ Prescribed dofs are eliminated symmetrically: their rows are
 import numpy as np
 from petsc4py import PETSc
 
-from .. import assembly, kinematics
+from .. import assembly, faults, kinematics
 from ..materials.base import youngs_modulus
 from ..materials.update import update_stress
 from ..stages import log_stage
@@ -77,15 +77,17 @@ class StepProblem:
         self.residual_scale = float(residual_scale)
         self.stages = stages or {}
         self.state = None
+        self.step = 0
         self.inverted = False            # did a residual or Jacobian meet an inverted particle?
         self.residual_evaluations = 0
         self.diag = grid.da.createGlobalVec()
         self.row_offset = self.diag.getOwnershipRange()[0]
         self.K = self.projection = None
 
-    def begin(self, state):
-        """Start solving a step."""
+    def begin(self, state, step=0):
+        """Start solving a step (``step``: its 1-based number)."""
         self.state = state
+        self.step = step
         self.inverted = False
         self.residual_evaluations = 0
 
@@ -176,6 +178,7 @@ class StepProblem:
     def form_residual(self, snes, X, R):
         st = self.state
         self.residual_evaluations += 1
+        faults.checkpoint("residual", self.grid.comm.rank, self.step)
         u_local = self.grid.vec_to_local(X)
         u = X.getArray(readonly=True)
         r = R.getArray()

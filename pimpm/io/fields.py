@@ -2,6 +2,7 @@
 particles, then rigid ones) and the grid fields of the last step."""
 import numpy as np
 
+from .. import faults
 from ..materials import von_mises
 
 
@@ -46,5 +47,6 @@ def grid_fields(sim):
 
 def write_results(sim, writer):
     """One output step of ``sim`` through a ResultWriter. Collective."""
+    faults.checkpoint("output", sim.comm.rank, sim.step_index)
     writer.write_step(sim.step_index, sim.time, particle_fields(sim), grid_fields(sim),
                       sim.grid.owned_box())
