@@ -119,10 +119,17 @@ def group_by_node_set(node_index, n_nodes):
     if n == 0:
         return np.zeros(0, int), np.zeros(0, int)
     key = node_index[:, 0] * n_nodes + node_index[:, -1]
-    # np.lexsort sorts by its last key first, and is stable
-    order = np.lexsort(tuple(node_index[:, j] for j in range(nn - 1, -1, -1)) + (key,))
+    order = np.argsort(key, kind="stable")
     rows = node_index[order]
-    starts = np.flatnonzero(np.r_[True, np.any(rows[1:] != rows[:-1], axis=1)])
+    same_key = key[order][1:] == key[order][:-1]
+    differs = np.any(rows[1:] != rows[:-1], axis=1)
+    if np.any(same_key & differs):
+        # clipped stencils share a key: sort by the whole list too (np.lexsort
+        # sorts by its last key first, and is stable)
+        order = np.lexsort(tuple(node_index[:, j] for j in range(nn - 1, -1, -1)) + (key,))
+        rows = node_index[order]
+        differs = np.any(rows[1:] != rows[:-1], axis=1)
+    starts = np.flatnonzero(np.r_[True, differs])
     return order, starts
 
 

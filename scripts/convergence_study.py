@@ -135,7 +135,7 @@ def report(shape, runs, sizes):
                     + ", ".join(f"{v:+.4g}" for v in d))
             if len(diffs) >= 2:
                 p = np.log2(np.abs(diffs[-2]) / np.abs(diffs[-1]))
-                say(f"  observed order in h: " + ", ".join(f"{v:.2f}" for v in p))
+                say("  observed order in h: " + ", ".join(f"{v:.2f}" for v in p))
         for h in sizes:
             a, b = runs[(h, 0.5)]["marks"], runs[(h, 0.25)]["marks"]
             if len(a) == len(b) == len(MARKS):
