@@ -12,8 +12,11 @@ petsc4py.init([])
 import pytest
 from mpi4py import MPI
 
+from pimpm.analysis import Analysis, Observer
 from pimpm.config import validate
+from pimpm.materials import make_material
 from pimpm.simulation import SetupError, Simulation
+from pimpm.step_control import TimeStepControl
 
 
 def bar_config(integrator, dt=None, stress_update=None, shape="linear", formulation=None):
@@ -35,21 +38,37 @@ def bar_config(integrator, dt=None, stress_update=None, shape="linear", formulat
     return validate(raw)
 
 
+class TipRecord(Observer):
+    """Time, tip velocity and total energy after every step."""
+
+    def __init__(self, tip_id):
+        self.tip_id = tip_id
+        self.times, self.tip_velocity, self.energy = [], [], []
+
+    def start(self, analysis):
+        self.energy.append(analysis.sim.kinetic_energy() + analysis.sim.strain_energy())
+
+    def step(self, analysis, info):
+        p = analysis.sim.particles
+        self.times.append(info["time"])
+        self.tip_velocity.append(p["v"][np.flatnonzero(p["id"] == self.tip_id)[0], 0])
+        self.energy.append(info["kinetic_energy"] + info["strain_energy"])
+
+
 def vibrate(config, periods, dt=None):
-    sim = Simulation(config, MPI.COMM_WORLD)
-    m = sim.materials[0]
+    """The bar in its fundamental mode for ``periods`` periods, with pimpm's
+    loop at the input's dt (or the CFL step when explicit); returns the
+    simulation, the analytic period, the periods measured from the tip
+    velocity's zero crossings and the total energy after every step."""
+    m = make_material(config["materials"]["m"])
     period = 4.0 / np.sqrt((m.bulk_modulus + 4.0 / 3.0 * m.shear_modulus) / m.density)
+    assert dt is None or dt == config["time"]["dt"]
+    sim = Simulation(dict(config, time=dict(config["time"], end_time=periods * period)), MPI.COMM_WORLD)
     p = sim.particles
     p["v"][:, 0] = 0.01 * np.sin(np.pi * p["x"][:, 0] / 2.0)
-    tip_id = p["id"][np.argmax(p["x0"][:, 0])]
-    times, tip_velocity, energy = [], [], [sim.kinetic_energy() + sim.strain_energy()]
-    while sim.time < periods * period:
-        info = sim.advance(dt if dt is not None else sim.stable_time_step())
-        p = sim.particles
-        times.append(sim.time)
-        tip_velocity.append(p["v"][np.flatnonzero(p["id"] == tip_id)[0], 0])
-        energy.append(info["kinetic_energy"] + info["strain_energy"])
-    t, v = np.array(times), np.array(tip_velocity)
+    record = TipRecord(p["id"][np.argmax(p["x0"][:, 0])])
+    assert Analysis(sim, [record], TimeStepControl(dict(sim.config["time"], max_cuts=0))).run() == 0
+    t, v, energy = np.array(record.times), np.array(record.tip_velocity), record.energy
     down = np.flatnonzero((v[:-1] > 0) & (v[1:] <= 0))
     crossings = t[down] + (t[down + 1] - t[down]) * v[down] / (v[down] - v[down + 1])
     return sim, period, np.diff(crossings), np.array(energy)

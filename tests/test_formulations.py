@@ -23,8 +23,10 @@ petsc4py.init([])
 import pytest
 from mpi4py import MPI
 
+from pimpm.analysis import Analysis
 from pimpm.config import validate
-from pimpm.simulation import Simulation, StepFailed
+from pimpm.simulation import Simulation
+from pimpm.step_control import TimeStepControl
 
 VELOCITY = np.array([0.01, 0.006])
 E = 1000.0
@@ -43,16 +45,17 @@ def translating_disk(time):
 
 
 def translate(sim, until, dt=None):
-    """Advance to ``until``; returns (failure message or None, max |stress|,
-    max deviation of any particle from the rigid translation)."""
+    """Advance to ``until`` with pimpm's loop, at the step of the input (dt)
+    or the CFL step (explicit), no step cut; returns (failure message or
+    None, max |stress|, max deviation of any particle from the rigid
+    translation)."""
     p = sim.particles
     start = dict(zip(p["id"].tolist(), p["x"]))
-    failure = None
-    try:
-        while sim.time < until - 1e-12:
-            sim.advance(dt if dt is not None else sim.stable_time_step())
-    except StepFailed as err:
-        failure = str(err)
+    time = dict(sim.config["time"], end_time=until, max_cuts=0)
+    assert dt is None or dt == time["dt"]
+    analysis = Analysis(sim, control=TimeStepControl(time))
+    analysis.run()
+    failure = analysis.failure
     p = sim.particles
     x0 = np.array([start[i] for i in p["id"].tolist()])
     deviation = np.max(np.abs(p["x"] - x0 - VELOCITY * sim.time))
