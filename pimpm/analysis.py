@@ -35,7 +35,8 @@ class Observer:
         """After the loop (status 0 done, 1 numerical failure)."""
 
     def close(self):
-        """Release files; called even when the run raised."""
+        """Release files: after the loop, and after an exception on one rank
+        (on several ranks an unexpected exception leaves them open)."""
 
 
 class Analysis:
@@ -177,6 +178,8 @@ class StepStatistics(Observer):
         self.energy = 0.0
         self.forces = {}
         self.energy0 = None
+        self.failure = None          # the message of the step that stopped the run, or None
+        self.steps = 0
 
     def start(self, analysis):
         sim = analysis.sim
@@ -189,6 +192,10 @@ class StepStatistics(Observer):
         if self.energy0 > 0:
             departure = abs(info["kinetic_energy"] + info["strain_energy"] - self.energy0) / self.energy0
             self.energy = max(self.energy, departure)
+
+    def finish(self, analysis, status):
+        self.failure = analysis.failure
+        self.steps = analysis.sim.step_index
 
 
 def progress_line(info, rigid_names):
@@ -233,8 +240,7 @@ def run(config, comm, overwrite=False, echo=print):
 def run_to_end(raw_or_config, comm=None, observers=(), max_steps=None):
     """For scripts: build a Simulation from a validated config, run it with
     the library's loop and step control (no files written) and return
-    ``(sim, statistics, status)``; ``statistics`` is a StepStatistics (its
-    ``failure`` the message of a run that stopped, else None). The solver is
+    ``(sim, statistics, status)``; ``statistics`` is a StepStatistics. The solver is
     destroyed; the particles stay readable."""
     from mpi4py import MPI
     sim = Simulation(raw_or_config, MPI.COMM_WORLD if comm is None else comm)
@@ -245,6 +251,4 @@ def run_to_end(raw_or_config, comm=None, observers=(), max_steps=None):
     finally:
         if sim.solver is not None:
             sim.solver.destroy()
-    stats.failure = analysis.failure
-    stats.steps = sim.step_index
     return sim, stats, status

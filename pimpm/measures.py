@@ -20,7 +20,7 @@ def edge_particle_id(ids, x0, body, body_index=0, comm=None):
     mine = body == body_index
     y_min = float(x0[mine, 1].min()) if np.any(mine) else np.inf
     if comm is not None:
-        y_min = -comm.allreduce(-y_min, op=_max())
+        y_min = comm.allreduce(y_min, op=_mpi_op("MIN"))
     on_plane = mine & (x0[:, 1] == y_min)
     best = (float(x0[on_plane, 0].max()), -int(ids[on_plane][np.argmax(x0[on_plane, 0])])) \
         if np.any(on_plane) else (-np.inf, 0)
@@ -49,12 +49,12 @@ def midplane_radius(x, body, cell_size, body_index=0, comm=None):
     cells (``cell_size`` the cell height)."""
     band = (body == body_index) & (x[:, 1] < 2.0 * cell_size)
     local = float(x[band, 0].max()) if np.any(band) else -np.inf
-    return local if comm is None else comm.allreduce(local, op=_max())
+    return local if comm is None else comm.allreduce(local, op=_mpi_op("MAX"))
 
 
-def _max():
+def _mpi_op(name):
     from mpi4py import MPI      # imported here: scripts that only read files need no MPI
-    return MPI.MAX
+    return getattr(MPI, name)
 
 
 def column_stress_error(particles, density, gravity, height, comm=None):
@@ -67,7 +67,7 @@ def column_stress_error(particles, density, gravity, height, comm=None):
     if comm is None:
         worst, squares, count = local
     else:
-        worst = comm.allreduce(local[0], op=_max())
+        worst = comm.allreduce(local[0], op=_mpi_op("MAX"))
         squares, count = comm.allreduce(local[1]), comm.allreduce(local[2])
     return worst, float(np.sqrt(squares / count))
 

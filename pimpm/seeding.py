@@ -87,7 +87,7 @@ def seed_body(grid, geometry, particles_per_cell, body_index, id_offset):
     volume0[clipped] = np.prod(clip_hi[clipped] - clip_lo[clipped], axis=1)
     # the curved part (balls, cylinders): sub-cells whose centre is strictly inside
     distance = _signed_distance_curved(x, geometry)
-    keep = overlap if distance is None else overlap & (distance <= 0.0)
+    keep = overlap if distance is None else overlap & (distance < 0.0)
     order = np.argsort(pid[keep], kind="stable")
     return x[keep][order], volume0[keep][order], half[keep][order], pid[keep][order]
 
