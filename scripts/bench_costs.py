@@ -37,7 +37,9 @@ def load(name):
         return yaml.safe_load(f)
 
 
-def problems():
+def problems(shape="linear"):
+    """The problems; the billet and the upsetting with ``shape`` functions
+    (linear, as in docs/PERFORMANCE.md, unless --shape says otherwise)."""
     bar = load("bar_tension.yaml")
     bar["title"] = "elastic bar in tension, dynamic"
     disks = load("colliding_disks.yaml")
@@ -46,6 +48,8 @@ def problems():
     billet["grid"].update(upper=[36.0, 22.0], cells=[36, 22])
     billet["bodies"][1]["geometry"].update(upper=[35.0, 21.0])
     upsetting = load("upsetting.yaml")      # axisymmetric, finite-strain J2, 1 mm cells
+    for config in (billet, upsetting):
+        config["grid"]["shape_functions"] = shape
     # implicit runs: (integrator, multiple of the explicit step); upsetting is
     # also run quasi-static at the input's step (inertia is negligible at 1 m/s)
     newmark = lambda factors: [("newmark", k) for k in factors]
@@ -96,10 +100,12 @@ def main():
     ap.add_argument("--json", default=os.path.join(ROOT, "docs", "bench_costs.json"))
     ap.add_argument("--figure", default=os.path.join(ROOT, "docs", "figures", "colliding_disks_energy.png"))
     ap.add_argument("--problems", nargs="+", default=["bar", "disks", "billet", "upsetting"])
+    ap.add_argument("--shape", choices=["linear", "gimp", "bspline"], default="linear",
+                    help="shape functions of the billet and the upsetting (default: linear, as documented)")
     args = ap.parse_args()
     rows, curves = [], {}
     with tempfile.TemporaryDirectory() as workdir:
-        for name, (config, factors) in problems().items():
+        for name, (config, factors) in problems(args.shape).items():
             if name not in args.problems:
                 continue
             dt_e = wave_step(config)

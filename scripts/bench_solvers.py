@@ -27,10 +27,13 @@ import yaml
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PRESETS = ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free")
 TIMEOUT = 900          # seconds per case
+# docs/PERFORMANCE.md's solver tables were measured with linear shape functions
+# (the default before GIMP); --shape gimp measures today's default
+SHAPE_FUNCTIONS = "linear"
 STAGES = ("P2G", "Solve", "Constitutive update", "Assembly", "G2P", "Migration", "Output")
 
 
-def billet(level, steps):
+def billet(level, steps, shape=SHAPE_FUNCTIONS):
     """G&W 5.1.1 billet, quasi-static; h = 0.5, 0.25, 0.125 cm; 2x2 particles
     per cell; the platen moves half a cell per step."""
     h = 0.5 / 2**level
@@ -38,7 +41,7 @@ def billet(level, steps):
     return {
         "title": f"billet h={h}",
         "grid": {"lower": [0, 0], "upper": [40.0, 21.0], "cells": [nx, ny],
-                 "boundary": {"xmin": "symmetry", "ymin": "symmetry"}},
+                 "shape_functions": shape, "boundary": {"xmin": "symmetry", "ymin": "symmetry"}},
         "materials": {"rubber": {"model": "neo_hookean", "shear_modulus": 6.0e6,
                                  "bulk_modulus": 6.0e7, "density": 10.0}},
         "bodies": [
@@ -52,7 +55,7 @@ def billet(level, steps):
     }
 
 
-def block3d(level, steps):
+def block3d(level, steps, shape=SHAPE_FUNCTIONS):
     """3D elastic block (compressible neo-Hookean, E = 1e3, nu = 0.3) on three
     symmetry planes, compressed by a bonded rigid platen; 8, 16, 32 cells per
     axis (the finest: 35 937 nodes, 107 811 unknowns); 2x2x2 particles per cell."""
@@ -62,7 +65,7 @@ def block3d(level, steps):
     return {
         "title": f"3D block n={n}",
         "grid": {"lower": [0, 0, 0], "upper": [1.5, 1.5, 1.5], "cells": [n, n, n],
-                 "boundary": {"xmin": "symmetry", "ymin": "symmetry", "zmin": "symmetry"}},
+                 "shape_functions": shape, "boundary": {"xmin": "symmetry", "ymin": "symmetry", "zmin": "symmetry"}},
         "materials": {"m": {"model": "neo_hookean_compressible", "youngs_modulus": 1000.0,
                             "poisson_ratio": 0.3, "density": 1.0}},
         "bodies": [
@@ -91,8 +94,8 @@ def parse_log(text):
     return stages, memory
 
 
-def run_case(problem, level, preset, ranks, steps, workdir):
-    config = (billet if problem == "billet-2d" else block3d)(level, steps)
+def run_case(problem, level, preset, ranks, steps, workdir, shape=SHAPE_FUNCTIONS):
+    config = (billet if problem == "billet-2d" else block3d)(level, steps, shape)
     with open(os.path.join(workdir, "case.yaml"), "w") as f:
         yaml.safe_dump(config, f)
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
@@ -169,6 +172,8 @@ def main():
     ap.add_argument("--all", action="store_true", help="also run matrix-free at the finest level")
     ap.add_argument("--table", metavar="JSON", help="only print the table of an earlier run")
     ap.add_argument("--json", default=os.path.join(ROOT, "docs", "bench_solvers.json"))
+    ap.add_argument("--shape", choices=["linear", "gimp", "bspline"], default=SHAPE_FUNCTIONS,
+                    help="grid.shape_functions of every case (default: linear)")
     args = ap.parse_args()
     if args.table:
         with open(args.table) as f:
@@ -187,7 +192,7 @@ def main():
                     continue
                 for ranks in args.ranks:
                     with tempfile.TemporaryDirectory() as workdir:
-                        row = run_case(problem, level, preset, ranks, args.steps, workdir)
+                        row = run_case(problem, level, preset, ranks, args.steps, workdir, args.shape)
                     rows.append(row)
                     print(json.dumps({k: v for k, v in row.items() if k != "stage_share"}), flush=True)
                     with open(args.json, "w") as f:

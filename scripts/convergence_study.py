@@ -15,7 +15,8 @@ compression, the differences between successive refinements, the observed
 levels exist, and the drift of the stored J = det F from the J of the
 particle lattice per step (pimpm.measures.lattice_j_drift).
 
-Writes docs/convergence_study.json (or --json PATH).
+Writes docs/convergence_study.json (or --json PATH), merged with what the
+file already holds (entries for other shape functions or studies are kept).
 
     mpiexec -n 2 python scripts/convergence_study.py [--column] [--billet]
         [--shapes linear gimp bspline] [--sizes 1 0.5 0.25]
@@ -160,6 +161,13 @@ def main():
         result["billet"] = billet_study(args.shapes, args.sizes)
     from mpi4py import MPI
     if MPI.COMM_WORLD.rank == 0:
+        # merge into the existing file: the shapes (and studies) not run keep their entries
+        if os.path.exists(args.json):
+            with open(args.json) as f:
+                previous = json.load(f)
+            for study, entries in result.items():
+                previous.setdefault(study, {}).update(entries)
+            result = previous
         with open(args.json, "w") as f:
             json.dump(result, f, indent=1, default=float)
         say(f"\nwritten: {args.json}")

@@ -28,19 +28,20 @@ sys.path.insert(0, ROOT)
 from pimpm.measures import midplane_radius               # noqa: E402
 
 
-def case(h, shape="linear"):
+def case(h, shape=None):
     with open(os.path.join(ROOT, "inputs", "upsetting.yaml")) as f:
         cfg = yaml.safe_load(f)
     cfg = copy.deepcopy(cfg)
     cfg["grid"]["cells"] = [int(round(24 / h)), int(round(17 / h))]
     cfg["bodies"][1]["geometry"] = {"type": "box", "lower": [0.0, 15.0], "upper": [23.0, 15.0 + h]}
     cfg["time"]["dt"] = 5.0e-4 * h          # half a cell per step at 1 m/s
-    cfg["grid"]["shape_functions"] = shape
+    if shape is not None:                  # else the input's own (linear)
+        cfg["grid"]["shape_functions"] = shape
     cfg["output"] = {"directory": "out", "every": 1}
     return cfg
 
 
-def run(h, ranks, workdir, shape="linear"):
+def run(h, ranks, workdir, shape=None):
     path = os.path.join(workdir, f"upsetting_{h}.yaml")
     with open(path, "w") as f:
         yaml.safe_dump(case(h, shape), f)
@@ -72,7 +73,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--sizes", type=float, nargs="+", default=[2.0, 1.0, 0.5])
-    ap.add_argument("--shape", default="linear", choices=["linear", "gimp", "bspline"])
+    ap.add_argument("--shape", default=None, choices=["linear", "gimp", "bspline"],
+                    help="shape functions (default: the input's, linear)")
     ap.add_argument("--no-docs", action="store_true")
     args = ap.parse_args()
     results = []
@@ -82,7 +84,7 @@ def main():
     failed = [r for r in results if r.get("failed")]
     results = [r for r in results if not r.get("failed")]
     for r in failed:
-        print(f"h = {r['h']:g} mm ({args.shape}): failed after {r['steps']} steps at "
+        print(f"h = {r['h']:g} mm ({args.shape or 'as in the input'}): failed after {r['steps']} steps at "
               f"{100 * r['reduction_reached']:.1f}% reduction")
     if not results:
         return

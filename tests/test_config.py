@@ -75,7 +75,7 @@ def test_base_config_normalizes_with_defaults():
     assert cfg["title"] == "small billet"
     assert cfg["grid"] == {
         "lower": [0.0, 0.0], "upper": [30.0, 25.0], "cells": [60, 50],
-        "shape_functions": "linear",
+        "shape_functions": "gimp",
         "boundary": {"xmin": "roller", "xmax": "free", "ymin": "roller", "ymax": "free"},
     }
     assert cfg["kinematics"] == "plane_strain"

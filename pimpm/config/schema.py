@@ -8,6 +8,9 @@ from ..shape import SHAPES
 
 FORMULATIONS = ("velocity", "momentum")
 SHAPE_FUNCTIONS = tuple(SHAPES)
+# GIMP converges under refinement of h and dt; linear does not once particles
+# cross cells (docs/VALIDATION.md, Convergence under refinement)
+DEFAULT_SHAPE_FUNCTIONS = "gimp"
 BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
 BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: tuple(k for k in _KINEMATICS_REGISTRY if k != "3d"), 3: ("3d",)}

@@ -5,7 +5,7 @@ from .checks import (_MISSING, _Section, _bool, _enum, _fail, _float, _float_vec
     _is_int, _is_number, _join, _optional_mapping, _positive, _string)
 from ..integrators import INTEGRATORS as _INTEGRATORS
 from .schema import (AXES, BOUNDARY_ALIASES, BOUNDARY_TYPES, CONVERGENCE_KEYS, CONVERGENCE_TESTS,
-    DEFAULT_OUTPUT_DIRECTORY, FORMULATIONS, GRID_KEYS, INTEGRATORS, OUTPUT_KEYS, SHAPE_FUNCTIONS,
+    DEFAULT_OUTPUT_DIRECTORY, DEFAULT_SHAPE_FUNCTIONS, FORMULATIONS, GRID_KEYS, INTEGRATORS, OUTPUT_KEYS, SHAPE_FUNCTIONS,
     SOLVER_KEYS, SOLVER_PRESETS, STRESS_UPDATES, TIME_KEYS)
 
 
@@ -25,7 +25,7 @@ def _validate_grid(value, path):
     cells = [_int(c, f"{cells_path}[{i}]") for i, c in enumerate(cells_raw)]
 
     shape = sec.optional("shape_functions")
-    shape = "linear" if shape is _MISSING else _enum(shape, sec.sub("shape_functions"),
+    shape = DEFAULT_SHAPE_FUNCTIONS if shape is _MISSING else _enum(shape, sec.sub("shape_functions"),
                                                      SHAPE_FUNCTIONS)
 
     faces = [f"{AXES[a]}{side}" for a in range(dim) for side in ("min", "max")]
