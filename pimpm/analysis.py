@@ -208,6 +208,8 @@ def progress_line(info, rigid_names):
         notes += f"  direct fallbacks {info['linear_fallbacks']}"
     if info["step_cuts"]:
         notes += f"  dt cuts {info['step_cuts']}"
+    if info.get("particle_imbalance", 1.0) > 1.1:
+        notes += f"  particle imbalance {info['particle_imbalance']:.2f}"
     if info.get("explicit"):
         return (f"step {info['step']:5d}  t {info['time']:.5e}  dt {info['dt']:.3e}  "
                 f"kinetic {info['kinetic_energy']:.4e}  strain {info['strain_energy']:.4e}  {forces}  "

@@ -15,8 +15,12 @@ class Grid:
     """Uniform structured grid on a DMDA with ``dof = dim`` (one unknown per
     displacement component and node)."""
 
-    def __init__(self, comm, lower, upper, cells, stencil_width=1):
+    def __init__(self, comm, lower, upper, cells, stencil_width=1, ownership_ranges=None,
+                 proc_sizes=None):
+        """``ownership_ranges``: nodes per rank along each axis (DMDA ``lx,
+        ly, lz``) on the process grid ``proc_sizes``; PETSc's even split if None."""
         self.comm = comm  # mpi4py communicator
+        self.stencil_width = stencil_width
         self.dim = len(cells)
         self.lower = np.asarray(lower, dtype=float)
         self.upper = np.asarray(upper, dtype=float)
@@ -28,6 +32,9 @@ class Grid:
         self.da = PETSc.DMDA().create(
             dim=self.dim, dof=self.dim, sizes=tuple(int(n) for n in self.nodes),
             stencil_type=PETSc.DMDA.StencilType.BOX, stencil_width=stencil_width,
+            proc_sizes=None if proc_sizes is None else tuple(int(p) for p in proc_sizes),
+            ownership_ranges=None if ownership_ranges is None else
+            tuple(tuple(int(n) for n in r) for r in ownership_ranges),
             comm=petsc_comm)
         self.da.setUp()
         lo, hi = self.lower, self.upper
@@ -170,6 +177,24 @@ class Grid:
         self.da.globalToLocal(gvec, lvec, addv=PETSc.InsertMode.INSERT_VALUES)
         return lvec.getArray().reshape(self.n_local_nodes, self.dim).copy()
 
+    def natural_node_index(self):
+        """Natural (x fastest) linear index of each owned node, in owned order."""
+        ijk = self.owned_node_ijk
+        index = ijk[:, -1]
+        for d in range(self.dim - 2, -1, -1):
+            index = index * self.nodes[d] + ijk[:, d]
+        return index
+
+    def transfer_owned(self, values, other):
+        """Owned nodal ``values`` (``k`` per node) of this grid as owned values
+        of ``other``, the same grid partitioned differently. Collective; used
+        only when the ranks are repartitioned, so an allgather is fine."""
+        k = len(values) // self.n_owned_nodes                 # every rank owns nodes
+        everything = np.zeros((int(np.prod(self.nodes)), k))
+        for index, part in self.comm.allgather((self.natural_node_index(), values.reshape(-1, k))):
+            everything[index] = part
+        return everything[other.natural_node_index()].reshape(-1).copy()
+
     def vec_to_local(self, vec):
         """Ghosted-local copy (n_local_nodes, dim) of a global Vec. Collective."""
         lvec, _ = self._scratch()
@@ -180,3 +205,4 @@ class Grid:
         """First global row of this rank's owned dofs."""
         _, gvec = self._scratch()
         return gvec.getOwnershipRange()[0]
+

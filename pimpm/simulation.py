@@ -20,6 +20,7 @@ from .integrators import make_integrator
 from .integrators.explicit import stable_time_step
 from .kinematics import make_kinematics
 from .materials import make_material
+from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
 from .particles import migrate, sort_by_cell
 from .seeding import particles_per_body, seed_bodies
 from .shape import make_shape
@@ -62,6 +63,13 @@ class Simulation:
         self.mass0 = float(self.particles.global_sum(comm, "mass"))
         largest = float(np.max(self.particles["mass"])) if len(self.particles) else 0.0
         self.mass_floor = 1e-10 * comm.allreduce(largest, op=MPI.MAX)
+        db = PETSc.Options()
+        self.balance = db.getBool("pimpm_balance", True)      # -pimpm_balance 0: PETSc's even split
+        #: repartition before a step when the particle imbalance exceeds this
+        self.rebalance_threshold = db.getReal("pimpm_rebalance_threshold", 1.1)
+        if self.balance:
+            self.balance_ranks()
+        self.step_imbalance = self.particle_imbalance()
         self.stages = log_stages()
         self.solver = None
         self.last_grid = None
@@ -70,9 +78,16 @@ class Simulation:
             if problem:
                 raise SetupError(problem)
             return
+        self._make_solver()
+
+    def _make_solver(self):
+        """The step problem and its Newton solver on the current grid."""
+        config = self.config
         self.problem = StepProblem(self.grid, residual_scale(config, self.materials),
                                    momentum=config["time"]["formulation"] == "momentum",
-                                   stages=self.stages)
+                                   stages=self.stages,
+                                   nonsymmetric_materials=[m.name for m in self.materials
+                                                           if not m.symmetric_tangent])
         try:
             self.solver = NewtonSolver(self.grid, self.problem, config["solver"],
                                        DEFAULT_SOLVER_OPTIONS, self.stages)
@@ -200,6 +215,10 @@ class Simulation:
         """One implicit step (G&W section 3.3), or one explicit step. Returns
         a dict of step data. Raises StepFailed, leaving the particles as they were."""
         faults.checkpoint("step", self.comm.rank, self.step_index + 1)
+        self.step_imbalance = self.particle_imbalance()
+        if self.balance and self.step_imbalance > self.rebalance_threshold:
+            with log_stage(self.stages["Migration"]):
+                self.rebalance()
         if self.integrator.explicit:
             return self.integrator.advance(self, dt)
         t0 = wallclock.perf_counter()
@@ -283,10 +302,44 @@ class Simulation:
             info["explicit"] = True
         info.update(forces=forces, external_work=self.work.total,
                     kinetic_energy=self.kinetic_energy(), strain_energy=self.strain_energy(),
+                    particle_imbalance=self.step_imbalance,
                     wall_time=wallclock.perf_counter() - t0)
         return info
 
     # ----------------------------------------------------------------- migration
+    def particle_imbalance(self):
+        """Largest local particle count over the mean (1 = balanced). Collective."""
+        return particle_imbalance(len(self.particles), self.comm)
+
+    def balance_ranks(self):
+        """Choose the DMDA's ownership ranges from where the particles are, so
+        that every rank holds about the same number (the particle work of a
+        Newton iteration dominates), and move the particles to their new
+        owners. Collective; only between steps (the grid holds no state then)."""
+        grid = self.grid
+        weights = cell_layer_weights(grid, (self.particles, self.rigid), self.comm)
+        ranges = balanced_ownership(weights, grid.proc_sizes, min_nodes=max(1, grid.stencil_width))
+        current = [np.asarray(r) for r in grid.da.getOwnershipRanges()]
+        if all(np.array_equal(a, b) for a, b in zip(ranges, current)):
+            return
+        g = self.config["grid"]
+        self.grid = Grid(self.comm, g["lower"], g["upper"], g["cells"], stencil_width=grid.stencil_width,
+                         ownership_ranges=ranges, proc_sizes=grid.proc_sizes)
+        if getattr(self, "last_grid", None) is not None:      # the last step's grid fields, for output
+            self.last_grid = {k: grid.transfer_owned(v, self.grid) for k, v in self.last_grid.items()}
+        grid.da.destroy()
+        self.migrate()
+
+    def rebalance(self):
+        """Repartition between steps (the grid carries no state then): new
+        ownership ranges, DMDA, matrix and solver. Collective."""
+        old = self.grid
+        self.balance_ranks()
+        if self.grid is not old and self.solver is not None:
+            self.solver.destroy()
+            self._make_solver()
+        self.step_imbalance = self.particle_imbalance()
+
     def migrate(self):
         """Send particles to the rank owning their cell, then check that the
         global particle count and mass are unchanged."""

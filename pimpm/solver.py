@@ -68,10 +68,10 @@ class NewtonSolver:
         if self.preset not in PRESETS:
             raise ValueError(f"-pimpm_preset {self.preset}: expected one of {', '.join(PRESETS)}")
         preset_options, iterative, spd, self.matrix_free = PRESETS[self.preset]
-        if problem.momentum and spd:
-            raise ValueError(f"solver.preset = {self.preset!r}: expected a preset for non-symmetric "
-                             "tangents (gmres-gamg, mumps, jfnk or matrix-free) with "
-                             "time.formulation: momentum (its tangent K R is not symmetric)")
+        if spd and not problem.symmetric:
+            where = "-pimpm_preset" if db.hasName("pimpm_preset") else "solver.preset"
+            raise ValueError(f"{where} = {self.preset!r}: expected a preset for non-symmetric "
+                             f"tangents (gmres-gamg, mumps, jfnk or matrix-free) with {problem.asymmetry}")
         self.fallback = None
         use_fallback = iterative and not self.matrix_free and db.getBool(
             "pimpm_fallback", solver_config["fallback"])
@@ -79,6 +79,11 @@ class NewtonSolver:
         options.update(preset_options)
         if use_fallback:
             options.update(FALLBACK_OPTIONS)
+        if problem.symmetric:
+            # a symmetric tangent is factorized by MUMPS's LDL^T (half the work
+            # of LU); -pc_type lu on the command line or in the YAML still wins
+            options.update({k: "cholesky" for k, v in options.items()
+                            if k.endswith("pc_type") and v == "lu"})
         options.update(solver_config["petsc"])          # the YAML refines the preset
         self.options = options
         conv = solver_config["convergence"]
@@ -94,6 +99,9 @@ class NewtonSolver:
         self.X = self.da.createGlobalVec()
         self.R = self.da.createGlobalVec()
         self.J = problem.create_jacobian(self.matrix_free)
+        if problem.symmetric and not self.matrix_free:
+            self.J.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+            self.J.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
         if spd and not self.matrix_free:
             self.J.setOption(PETSc.Mat.Option.SPD, True)
         if iterative and not self.matrix_free:
@@ -158,7 +166,9 @@ class NewtonSolver:
         self.X.getArray()[:] = initial_guess
         self.snes.setConvergenceHistory(length=1000, reset=True)
         petsc_error = None
-        with log_stage(self.stages.get("Solve")):
+        # the options stay in the database for the whole solve: PCSetUp (GAMG
+        # level smoothers, the MUMPS factor) reads them at first use
+        with log_stage(self.stages.get("Solve")), scoped_options(self.options):
             try:
                 self.snes.solve(None, self.X)
             except PETSc.Error as err:
@@ -206,9 +216,11 @@ def _destroy_live_solvers():
 @contextmanager
 def scoped_options(options):
     """Put program options (defaults, then the YAML ``solver.petsc`` block)
-    into PETSc's database only while a solver reads them, so they never leak
-    into other solvers; options already in the database (the command line)
-    win and are left alone."""
+    into PETSc's database only while a solver is set up or solves (options
+    are read at set-up *and* at first use, as in Firedrake's
+    ``OptionsManager.inserted_options``), so they never leak into other
+    solvers; options already in the database (the command line) win and are
+    left alone."""
     db = PETSc.Options()
     inserted = [key for key in options if not db.hasName(key)]
     for key in inserted:

@@ -330,6 +330,11 @@ BAD_INPUTS = {
         None, yaml_case(lambda cfg: cfg["time"].update(integrator="newmark", formulation="momentum"),
                         "-pimpm_preset", "cg-gamg"),
         ["cg-gamg", "time.formulation: momentum", "gmres-gamg"]),
+    "non-symmetric finite-strain J2 tangent with conjugate gradients": (
+        None, yaml_case(set_key(["materials", "elastic"], {
+            "model": "j2_finite_strain", "youngs_modulus": 1000.0, "poisson_ratio": 0.3,
+            "density": 10.0, "yield_stress": 5.0, "hardening_modulus": 1.0}), "-pimpm_preset", "cg-gamg"),
+        ["-pimpm_preset", "cg-gamg", "j2_finite_strain", "gmres-gamg"]),
     "output directory cannot be created": (
         None, yaml_case(set_key(["output"], {"directory": "/dev/null/sub"})),
         ["output.directory", "/dev/null/sub"]),
@@ -395,7 +400,7 @@ def test_history_has_one_row_per_step(bar_run):
     proc, out = bar_run
     header, rows = read_history(out / "history.csv")
     # the documented columns, in this order (others may come in between)
-    wanted = HISTORY_COLUMNS + ["puller_force_x", "puller_force_y", "wall_time"]
+    wanted = HISTORY_COLUMNS + ["puller_force_x", "puller_force_y", "particle_imbalance", "wall_time"]
     assert [c for c in header if c in wanted] == wanted, header
     assert header[-1] == "wall_time" and len(set(header)) == len(header)
     assert [int(r[0]) for r in rows] == list(range(1, 11))

@@ -49,6 +49,12 @@ def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, 
     error = float(re.search(r" relative_error=(\S+)", proc.stdout).group(1))
     assert error < 1e-6
     assert "prescribed_rows_ok=True" in proc.stdout
+    # the tangent is symmetric exactly when the problem says so (LDL^T is used then)
+    asymmetry = float(re.search(r" asymmetry=(\S+)", proc.stdout).group(1))
+    if "declared_symmetric=True" in proc.stdout:
+        assert asymmetry < 1e-12
+    else:
+        assert asymmetry > 1e-6
     # the matrix-free shell product equals the assembled Jacobian times a vector
     shell = float(re.search(r"shell_product_relative_error=(\S+)", proc.stdout).group(1))
     assert shell < 1e-8

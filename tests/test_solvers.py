@@ -141,7 +141,8 @@ def test_command_line_beats_yaml_and_unused_options_are_reported(tmp_path):
     assert "preset mumps" in out                                  # pimpm option
     assert re.search(r"SNESLineSearch Object.*\n\s+type: l2", out)  # SNES option
     assert "relative=1e-09" in out                                # YAML option kept (not overridden)
-    assert "type: preonly" in out and "type: lu" in out           # KSP/PC of the preset
+    # KSP/PC of the preset; the neo-Hookean tangent is symmetric: LDL^T
+    assert "type: preonly" in out and "type: cholesky" in out
     assert re.search(r"Option left: name:-no_such_option value: 3", out)
     assert "Option left: name:-snes_rtol" not in out              # program options are not 'left'
 
@@ -163,3 +164,70 @@ def test_matrix_free_axisymmetric_plastic_matches_assembled():
     (x_direct, its_direct), (x_free, its_free) = results["mumps"], results["matrix-free"]
     assert its_free == its_direct
     np.testing.assert_allclose(x_free, x_direct, rtol=0, atol=1e-9)
+
+
+def _iterative_ksp(sim):
+    fallback = sim.solver.fallback
+    return fallback.iterative if fallback is not None else sim.solver.snes.getKSP()
+
+
+def _smoother_max_it(ksp):
+    pc = ksp.getPC()
+    assert pc.getMGLevels() >= 2
+    return pc.getMGSmoother(1).getTolerances()[3]
+
+
+@pytest.mark.parametrize("source", ["preset", "yaml", "command line"])
+def test_options_are_in_force_for_the_whole_solve(source):
+    """Options read at first use (GAMG's level smoothers and MUMPS's ICNTL
+    are read in PCSetUp, during the first solve) reach the live objects, from
+    the preset, the YAML and the command line (the database), in that order
+    of precedence."""
+    from petsc4py import PETSc
+    db = PETSc.Options()
+    expected = {"preset": (3, 1e-8, None), "yaml": (4, 1e-7, 35), "command line": (5, 1e-6, 40)}[source]
+    yaml_gamg = {"mg_levels_ksp_max_it": 4, "ksp_rtol": 1e-7} if source != "preset" else {}
+    yaml_mumps = {"mat_mumps_icntl_14": 35} if source != "preset" else {}
+    command_line = {"mg_levels_ksp_max_it": "5", "ksp_rtol": "1e-6", "mat_mumps_icntl_14": "40"}
+    if source == "command line":
+        for key, value in command_line.items():
+            db.setValue(key, value)
+    try:
+        gamg, _ = run_steps(billet_config("cg-gamg", petsc=yaml_gamg), 1)
+        ksp = _iterative_ksp(gamg)
+        assert _smoother_max_it(ksp) == expected[0]
+        assert ksp.getTolerances()[0] == pytest.approx(expected[1], rel=1e-12)
+        gamg.solver.destroy()
+        direct, _ = run_steps(billet_config("mumps", petsc=yaml_mumps), 1)
+        factor = direct.solver.snes.getKSP().getPC().getFactorMatrix()
+        if expected[2] is None:
+            assert factor.getMumpsIcntl(14) not in (35, 40)      # MUMPS's own default
+        else:
+            assert factor.getMumpsIcntl(14) == expected[2]
+        direct.solver.destroy()
+    finally:
+        for key in command_line:
+            if db.hasName(key):
+                db.delValue(key)
+    for key in ("mg_levels_ksp_max_it", "ksp_rtol", "mat_mumps_icntl_14"):
+        assert not db.hasName(key)          # program options do not leak out of the solve
+
+
+def test_symmetric_tangent_is_factorized_by_ldlt_and_gives_the_lu_answer():
+    """The neo-Hookean billet's tangent is symmetric (tests/mpi/jacobian_check.py
+    measures it): MUMPS factorizes it by LDL^T unless the options say lu, and
+    the two give the same steps. A finite-strain J2 tangent is not symmetric:
+    LU."""
+    ldlt, ldlt_infos = run_steps(billet_config("mumps"), 3)
+    lu, lu_infos = run_steps(billet_config("mumps", petsc={"pc_type": "lu"}), 3)
+    assert ldlt.solver.snes.getKSP().getPC().getType() == "cholesky"
+    assert lu.solver.snes.getKSP().getPC().getType() == "lu"
+    assert [i["newton_iterations"] for i in ldlt_infos] == [i["newton_iterations"] for i in lu_infos]
+    assert abs(bulge(ldlt) - bulge(lu)) <= 1e-10 * abs(bulge(lu))
+    for s in (ldlt, lu):
+        s.solver.destroy()
+    from helpers import coarse_upsetting
+    plastic = Simulation(validate(coarse_upsetting()), MPI.COMM_WORLD)
+    assert not plastic.problem.symmetric
+    assert plastic.solver.snes.getKSP().getPC().getType() == "lu"
+    plastic.solver.destroy()

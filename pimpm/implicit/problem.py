@@ -69,11 +69,19 @@ class StepProblem:
     """Residual and tangent of the implicit step on a grid, for the state of
     the step being solved (:attr:`state`, a StepState). ``momentum``:
     Sulsky & Kaul's momentum formulation (the tangent is K R, not symmetric).
+    ``nonsymmetric_materials``: names of the material models whose tangent
+    is not symmetric.
     """
 
-    def __init__(self, grid, residual_scale, momentum=False, stages=None):
+    def __init__(self, grid, residual_scale, momentum=False, stages=None, nonsymmetric_materials=()):
         self.grid = grid
         self.momentum = momentum
+        #: why the assembled tangent is not symmetric ("" if it is)
+        self.asymmetry = ("time.formulation: momentum (its tangent K R is not symmetric)" if momentum else
+                          f"material model {', '.join(sorted(set(nonsymmetric_materials)))} (its "
+                          "consistent tangent is not symmetric)" if nonsymmetric_materials else "")
+        #: is the assembled tangent symmetric? (then a symmetric factorization applies)
+        self.symmetric = not self.asymmetry
         self.residual_scale = float(residual_scale)
         self.stages = stages or {}
         self.state = None

@@ -13,7 +13,7 @@ class History:
                         "total_energy", "external_work"]
         for name in rigid_names:
             self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
-        self.columns += ["wall_time"]
+        self.columns += ["particle_imbalance", "wall_time"]
         self.file = None
         if comm.rank == 0:
             self.file = open(path, "w", newline="")
@@ -31,7 +31,7 @@ class History:
                repr(info["kinetic_energy"] + info["strain_energy"]), repr(info["external_work"])]
         for name in self.rigid_names:
             row += [repr(float(f)) for f in info["forces"][name]]
-        row += [f"{info['wall_time']:.4f}"]
+        row += [f"{info['particle_imbalance']:.4f}", f"{info['wall_time']:.4f}"]
         self.writer.writerow(row)
         self.file.flush()
 

@@ -64,6 +64,8 @@ class Material:
     history = {}
     #: parameters beyond the elastic constants and density: name -> Parameter
     parameters = {}
+    #: is the consistent tangent symmetric? (checked in tests/test_solvers.py)
+    symmetric_tangent = True
 
     def __init__(self, shear_modulus, bulk_modulus, density):
         self.shear_modulus = float(shear_modulus)

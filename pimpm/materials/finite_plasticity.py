@@ -85,6 +85,7 @@ class J2FiniteStrain(PlasticParameters, Material):
     bilinear hardening / softening."""
 
     name = "j2_finite_strain"
+    symmetric_tangent = False        # the exact return-map derivative (see tangent above)
     history = {"deformation_gradient": (3, 3), "elastic_left_cauchy_green": (3, 3),
                "eq_plastic_strain": (), "plastic_work": ()}
 

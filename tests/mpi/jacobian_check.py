@@ -106,6 +106,16 @@ X = solver.X.duplicate()
 X.getArray()[:] = u
 R = solver.R.duplicate()
 problem.form_jacobian(None, X, solver.J, solver.J)
+# Symmetry of the assembled tangent, against what the problem declares
+# (measured before the dense copy below, which converts J in place;
+# a symmetric tangent is factorized by LDL^T: pimpm/solver.py).
+from petsc4py import PETSc
+difference, transposed = solver.J.copy(), solver.J.copy()
+transposed.transpose()                     # in place (petsc4py transposes self when out is None)
+difference.axpy(-1.0, transposed)
+asymmetry = difference.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
+difference.destroy()
+transposed.destroy()
 J_local = solver.J.convert("dense").getDenseArray().copy()   # owned rows x all columns
 
 free_local = ~state.fixed
@@ -166,6 +176,7 @@ if comm.rank == 0:
     print(f"shell_product_relative_error={shell_error:.3e}")
     print(f"jacobian_check {integrator} dim={sim.dim} shape={shape} ranks={comm.size} free_dofs={n_free} "
           f"formulation={'momentum' if momentum else 'velocity'} "
-          f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok}")
+          f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok} "
+          f"asymmetry={asymmetry:.3e} declared_symmetric={problem.symmetric}")
 ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8
 sys.exit(0 if ok else 1)

@@ -13,6 +13,10 @@ from mpi4py import MPI
 
 from pimpm.config import validate
 from pimpm.simulation import Simulation
+from petsc4py import PETSc
+# PETSc's even split of the nodes, so that ranks 1 and 2 of 3 start without
+# particles (what this check is about); pimpm balances the ranks otherwise
+PETSc.Options().setValue("pimpm_balance", "0")
 from pimpm.transfer import grid_to_particle
 
 comm = MPI.COMM_WORLD
