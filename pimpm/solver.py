@@ -48,8 +48,39 @@ def diagnose_solver_options(config, err):
             return f"{where} = {value!r}: expected a {kind.split('_')[0].upper()} type known to PETSc"
         finally:
             obj.destroy()
+    culprit = _rejected_option(yaml_options)
+    if culprit is not None:
+        return culprit
     return (f"PETSc rejected the solver options (error code {getattr(err, 'ierr', err)}): "
             f"expected valid option values in solver.petsc and on the command line")
+
+
+def _rejected_option(yaml_options):
+    """The first option (YAML ``solver.petsc`` or command line) that a scratch
+    SNES rejects when it is the only option in the database, as a message;
+    None if none is rejected alone. The database is restored afterwards."""
+    db = PETSc.Options()
+    saved = db.getAll()
+    candidates = [(f"solver.petsc.{k}", k, str(v)) for k, v in yaml_options.items()]
+    candidates += [(f"-{k}", k, v) for k, v in saved.items() if not k.startswith("pimpm_")]
+    try:
+        for key in saved:
+            db.delValue(key)
+        for where, name, value in candidates:
+            db.setValue(name, value)
+            snes = PETSc.SNES().create(comm=PETSc.COMM_SELF)
+            try:
+                snes.setFromOptions()
+            except PETSc.Error:
+                shown = f"{where} {value}" if where.startswith("-") else f"{where} = {value!r}"
+                return f"{shown}: rejected by PETSc (expected a value of the type the option takes)"
+            finally:
+                snes.destroy()
+                db.delValue(name)
+    finally:
+        for key, value in saved.items():
+            db.setValue(key, value)
+    return None
 
 
 class NewtonSolver:

@@ -326,6 +326,12 @@ BAD_INPUTS = {
     "command-line PETSc option with a bad value": (
         None, yaml_case(lambda cfg: None, "-ksp_type", "nonsense"),
         ["ksp_type", "nonsense"]),
+    "command-line PETSc option with a value of the wrong type": (
+        None, yaml_case(lambda cfg: None, "-snes_max_it", "abc"),
+        ["-snes_max_it", "abc", "rejected by PETSc"]),
+    "YAML PETSc option with a value of the wrong type": (
+        None, yaml_case(set_key(["solver"], {"petsc": {"snes_rtol": "abc"}})),
+        ["solver.petsc.snes_rtol", "abc", "rejected by PETSc"]),
     "momentum formulation with a symmetric solver": (
         None, yaml_case(lambda cfg: cfg["time"].update(integrator="newmark", formulation="momentum"),
                         "-pimpm_preset", "cg-gamg"),
