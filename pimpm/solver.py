@@ -55,6 +55,24 @@ def diagnose_solver_options(config, err):
             f"expected valid option values in solver.petsc and on the command line")
 
 
+def _check_tolerances(snes, yaml_options, fallback=None):
+    """PETSc takes negative tolerances and iteration limits; pimpm would then
+    report a numerical failure. Refuse them here, naming the option."""
+    rtol, atol, stol, max_it = snes.getTolerances()
+    values = {"snes_rtol": rtol, "snes_atol": atol, "snes_stol": stol, "snes_max_it": max_it}
+    ksp = snes.getKSP()
+    if ksp.getType() == PETSc.KSP.Type.PYTHON:       # the fallback's inner solvers
+        ksp = fallback.iterative if fallback is not None else None
+    if ksp is not None:
+        k_rtol, k_atol, _, k_max_it = ksp.getTolerances()
+        values.update(ksp_rtol=k_rtol, ksp_atol=k_atol, ksp_max_it=k_max_it)
+    for name, value in values.items():
+        if value < 0 or (name.endswith("max_it") and value == 0):
+            where = f"solver.petsc.{name}" if name in yaml_options else f"-{name}"
+            what = "an integer >= 1" if name.endswith("max_it") else "a number >= 0"
+            raise ValueError(f"{where} = {value:g}: expected {what}")
+
+
 def _rejected_option(yaml_options):
     """The first option (YAML ``solver.petsc`` or command line) that a scratch
     SNES rejects when it is the only option in the database, as a message;
@@ -155,6 +173,11 @@ class NewtonSolver:
                 self.snes.getKSP().setUp()
         self.destroyed = False
         _LIVE_SOLVERS.add(self)
+        try:
+            _check_tolerances(self.snes, solver_config["petsc"], self.fallback)
+        except ValueError:
+            self.destroy()        # before PetscFinalize: the python KSP context
+            raise
 
     def destroy(self):
         """Free the PETSc objects now (collective); Python contexts held by

@@ -332,6 +332,13 @@ BAD_INPUTS = {
     "YAML PETSc option with a value of the wrong type": (
         None, yaml_case(set_key(["solver"], {"petsc": {"snes_rtol": "abc"}})),
         ["solver.petsc.snes_rtol", "abc", "rejected by PETSc"]),
+    "negative Newton iteration limit": (
+        None, yaml_case(lambda cfg: None, "-snes_max_it", "-3"),
+        ["-snes_max_it", "-3", "integer >= 1"]),
+    "negative Krylov tolerance in the YAML": (
+        None, yaml_case(set_key(["solver"], {"preset": "gmres-gamg", "fallback": False,
+                                             "petsc": {"ksp_rtol": -5}})),
+        ["solver.petsc.ksp_rtol", "-5", "number >= 0"]),
     "momentum formulation with a symmetric solver": (
         None, yaml_case(lambda cfg: cfg["time"].update(integrator="newmark", formulation="momentum"),
                         "-pimpm_preset", "cg-gamg"),
