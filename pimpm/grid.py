@@ -205,4 +205,3 @@ class Grid:
         """First global row of this rank's owned dofs."""
         _, gvec = self._scratch()
         return gvec.getOwnershipRange()[0]
-

@@ -10,7 +10,7 @@ def balanced_ownership(cell_weights, proc_sizes, min_nodes=1):
     """DMDA ownership ranges (nodes per rank along each axis) that split the
     work evenly: ``cell_weights[d]`` is the work in each cell layer along
     axis d (e.g. its particle count), and a cell belongs to the rank owning
-    its lower node (module docstring). Each rank keeps at least ``min_nodes``
+    its lower node (pimpm.grid's ownership rule). Each rank keeps at least ``min_nodes``
     nodes per axis (the stencil width). Pure function: the same on every rank."""
     ranges = []
     for weights, parts in zip(cell_weights, proc_sizes):

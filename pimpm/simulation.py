@@ -63,16 +63,15 @@ class Simulation:
         self.mass0 = float(self.particles.global_sum(comm, "mass"))
         largest = float(np.max(self.particles["mass"])) if len(self.particles) else 0.0
         self.mass_floor = 1e-10 * comm.allreduce(largest, op=MPI.MAX)
+        self.stages = log_stages()
+        self.solver = None
+        self.last_grid = None
         db = PETSc.Options()
         self.balance = db.getBool("pimpm_balance", True)      # -pimpm_balance 0: PETSc's even split
         #: repartition before a step when the particle imbalance exceeds this
         self.rebalance_threshold = db.getReal("pimpm_rebalance_threshold", 1.1)
         if self.balance:
             self.balance_ranks()
-        self.step_imbalance = self.particle_imbalance()
-        self.stages = log_stages()
-        self.solver = None
-        self.last_grid = None
         if self.integrator.explicit:
             problem = self.integrator.check_time_step(self)
             if problem:
@@ -325,7 +324,7 @@ class Simulation:
         g = self.config["grid"]
         self.grid = Grid(self.comm, g["lower"], g["upper"], g["cells"], stencil_width=grid.stencil_width,
                          ownership_ranges=ranges, proc_sizes=grid.proc_sizes)
-        if getattr(self, "last_grid", None) is not None:      # the last step's grid fields, for output
+        if self.last_grid is not None:      # the last step's grid fields, for output
             self.last_grid = {k: grid.transfer_owned(v, self.grid) for k, v in self.last_grid.items()}
         grid.da.destroy()
         self.migrate()
@@ -338,7 +337,7 @@ class Simulation:
         if self.grid is not old and self.solver is not None:
             self.solver.destroy()
             self._make_solver()
-        self.step_imbalance = self.particle_imbalance()
+        self.step_imbalance = self.particle_imbalance()    # what the step will run with
 
     def migrate(self):
         """Send particles to the rank owning their cell, then check that the

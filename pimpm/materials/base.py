@@ -64,7 +64,7 @@ class Material:
     history = {}
     #: parameters beyond the elastic constants and density: name -> Parameter
     parameters = {}
-    #: is the consistent tangent symmetric? (checked in tests/test_solvers.py)
+    #: is the consistent tangent symmetric? (measured by tests/mpi/jacobian_check.py)
     symmetric_tangent = True
 
     def __init__(self, shear_modulus, bulk_modulus, density):
