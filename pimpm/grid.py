@@ -59,6 +59,10 @@ class Grid:
         self.owned_cell_start = self.owned_start.copy()
         self.owned_cell_end = np.minimum(self.owned_end, self.cells)
 
+        # Ghosted-local multi-index of every ghosted-local node (x fastest).
+        ghost_mesh = np.meshgrid(*[np.arange(n) for n in self.ghost_shape], indexing="ij")
+        self.ghost_ijk = np.stack([np.ascontiguousarray(m.T).ravel() for m in ghost_mesh], axis=1)
+
         # Owned nodes in ghosted local numbering, in PETSc's global (x fastest) order.
         rel = [np.arange(s, e) - g for s, e, g in
                zip(self.owned_start, self.owned_end, self.ghost_start)]
@@ -136,6 +140,18 @@ class Grid:
     def node_coordinates_owned(self):
         """Coordinates (n_owned_nodes, dim) of the owned nodes, PETSc order."""
         return self.lower + self.owned_node_ijk * self.spacing
+
+    def box_preallocation(self, width):
+        """For every owned node (PETSc order): how many nodes lie within
+        ``width`` of it along every axis (the DMDA box stencil), on this rank
+        and on others. An upper bound of a tangent's block row lengths."""
+        lo = np.maximum(self.owned_node_ijk - width, 0)
+        hi = np.minimum(self.owned_node_ijk + width, self.nodes - 1)
+        total = np.prod(hi - lo + 1, axis=1)
+        own_lo = np.maximum(lo, self.owned_start)
+        own_hi = np.minimum(hi, self.owned_end - 1)
+        own = np.prod(np.maximum(own_hi - own_lo + 1, 0), axis=1)
+        return own, total - own
 
     def face_dofs(self, face, components):
         """Owned dof indices (into the owned/global-local array) of the nodes

@@ -12,6 +12,7 @@ kinematics needs it (the axisymmetric hoop stretch).
 import numpy as np
 
 from . import assembly
+from .kernels import particle_step
 from .materials import tensors
 
 
@@ -21,6 +22,8 @@ class PlaneStrain:
     name = "plane_strain"
     #: plane stress solves F33 at every particle, the others never change it
     solves_thickness = False
+    #: the code of this kinematics in the compiled kernels (pimpm.kernels.particle_step)
+    kernel_code = particle_step.GENERAL
 
     def reference_volume(self, x, volume):
         """Particle volume from the seeded area (2D) or volume (3D)."""
@@ -76,6 +79,7 @@ class PlaneStress(PlaneStrain):
 
     name = "plane_stress"
     solves_thickness = True
+    kernel_code = particle_step.PLANE_STRESS
 
     def material_update(self, material, F, history, tangent, F_inc=None):
         """A vectorised local Newton for F33 so that sigma33 = 0
@@ -109,6 +113,7 @@ class Axisymmetric(PlaneStrain):
     of the tangent."""
 
     name = "axisymmetric"
+    kernel_code = particle_step.AXISYMMETRIC
 
     def reference_volume(self, x, volume):
         return volume * 2.0 * np.pi * x[:, 0]       # area x 2 pi r (x is the radius)

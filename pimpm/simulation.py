@@ -15,11 +15,14 @@ from petsc4py import PETSc
 from . import assembly, bc, energy, faults
 from .errors import SetupError, StepFailed
 from .grid import Grid
-from .implicit import StepProblem, StepState, constraint_scale, residual_scale
+from .implicit import StepProblem, StepState, TangentPattern, constraint_scale, residual_scale
 from .integrators import make_integrator
 from .integrators.explicit import stable_time_step
+from .kernels import pattern as kernel_pattern
 from .kinematics import make_kinematics
 from .materials import make_material
+from .materials import tensors
+from .materials.update import MaterialTable
 from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
 from .particles import migrate, sort_by_cell
 from .seeding import particles_per_body, seed_bodies
@@ -140,15 +143,13 @@ class Simulation:
 
     # ----------------------------------------------------------------- the reset grid
     def footprint(self):
-        """Shape functions of the material particles on the reset grid, and
-        the grouping of particles that touch the same set of nodes (one
-        element matrix per group): ``order`` sorts particles by group and
-        ``starts`` marks the first of each group in that order."""
+        """Shape functions of the material particles on the reset grid:
+        ghosted-local node of each (particle, node) pair, weights and
+        gradients."""
         p = self.particles
         nodes, S, G = self.shape.evaluate(p["x"], self.grid.lower, self.grid.spacing,
                                           self.grid.cells, self.particle_half_sizes())
-        node_index = self.grid.local_node_index(nodes)
-        return node_index, S, G, assembly.group_by_node_set(node_index, self.grid.n_local_nodes)
+        return self.grid.local_node_index(nodes), S, G
 
     def particle_half_sizes(self):
         """Current particle-domain half sizes for GIMP: the initial h/(2 ppc)
@@ -158,6 +159,17 @@ class Simulation:
         p = self.particles
         stretch = np.abs(np.diagonal(p["F"], axis1=1, axis2=2)[:, :self.dim])
         return np.minimum(p["half_size"] * stretch, 0.5 * self.grid.spacing)
+
+    def tangent_pattern(self, node_index, active):
+        """The couplings of this step's tangent (pimpm.kernels.pattern)."""
+        grid = self.grid
+        width = self.shape.nodes_per_axis - 1
+        indptr, indices, slots = kernel_pattern.block_pattern(
+            node_index, active, grid.ghost_ijk, grid.dim, width, grid.owned_local_nodes,
+            grid.n_local_nodes, int(grid.ghost_shape[0]), int(grid.ghost_shape[1]))
+        scalar_indptr, scalar_indices = kernel_pattern.scalar_csr(indptr, indices, grid.dim)
+        return TangentPattern(width, indptr, indices, slots,
+                              scalar_indptr.astype(PETSc.IntType), scalar_indices.astype(PETSc.IntType))
 
     def nodal_state(self, node_index, S):
         """G&W step 1 (eq. 2-4): lumped mass, v_g(t), a_g(t) and Fext_g on
@@ -179,24 +191,32 @@ class Simulation:
     def prepare_step(self, dt):
         """Steps 1-2: P2G and the Newton state on the reset grid."""
         p, grid = self.particles, self.grid
-        node_index, S, G, (order, starts) = self.footprint()
+        node_index, S, G = self.footprint()
         mass, velocity, acceleration, fext = self.nodal_state(node_index, S)
         # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
         stiffness_weight = grid.sum_scalar_to_owned(particle_to_grid(
             node_index, np.sum((G * grid.spacing) ** 2, axis=2), p["mass"], grid.n_local_nodes))
         cons = bc.build_constraints(grid, self.shape, self.rigid, self.rigid_bodies,
                                     self.boundary, mass, dt, self.mass_floor, stiffness_weight)
+        groups = self.material_groups()
+        materials = MaterialTable(groups, len(p))
+        history = self.particle_history()
+        active = kernel_pattern.active_entries(S, G)
         state = StepState(
             dt=dt, integrator=self.integrator, kinematics=self.kinematics,
             node_index=node_index, S=S, G=G,
-            F_n=p["F"], volume_n=p["volume0"] * np.linalg.det(p["F"]),
-            material_groups=self.material_groups(), group_order=order, group_starts=starts,
-            group_nodes=node_index[order][starts],
+            F_n=p["F"], volume_n=p["volume0"] * tensors.det(p["F"]),
+            material_groups=groups, materials=materials, history_packed=materials.pack(history),
+            active=active, pattern=self.tangent_pattern(node_index, active),
             mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
-            history=self.particle_history(), radius=self.kinematics.radius(p["x"]),
+            history=history, radius=self.kinematics.radius(p["x"]),
             particle_mass=p["mass"], projection_floor=1e4 * self.mass_floor,
             fixed=cons.fixed, fixed_value=cons.value,
             constraint_scale=constraint_scale(self.materials, grid, self.integrator, dt))
+        if self.config["time"]["formulation"] == "momentum":    # the projection's blocks
+            order, starts = assembly.group_by_node_set(node_index, grid.n_local_nodes)
+            state.group_order, state.group_starts = order, starts
+            state.group_nodes = node_index[order][starts]
         if self.integrator.needs_previous_force:     # HHT: Fint(t) - Fext(t) on the reset grid
             self.problem.begin(state)
             state.previous_force = self.problem.internal_force(p["stress"], None) - fext
@@ -273,7 +293,8 @@ class Simulation:
         self.integrator.update_particles(p, u_p, a_p, dt)        # G&W step 7
         p["F"] = F
         p["stress"] = sigma
-        for name, values in state.extra["history"].items():     # commit the history
+        committed = state.committed_history(state.extra["history_packed"])
+        for name, values in committed.items():                   # commit the history
             p["h_" + name] = values
         self.rigid["x"] = self.rigid["x"] + self.rigid["v"] * dt
         return forces, v_new, a_new

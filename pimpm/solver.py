@@ -9,6 +9,7 @@ import weakref
 from contextlib import contextmanager
 
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .convergence import GuilkeyWeissTest
@@ -147,14 +148,17 @@ class NewtonSolver:
 
         self.X = self.da.createGlobalVec()
         self.R = self.da.createGlobalVec()
-        self.J = problem.create_jacobian(self.matrix_free)
-        if problem.symmetric and not self.matrix_free:
-            self.J.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-            self.J.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
-        if spd and not self.matrix_free:
-            self.J.setOption(PETSc.Mat.Option.SPD, True)
-        if iterative and not self.matrix_free:
-            self.J.setNearNullSpace(rigid_body_near_null_space(grid))
+        self.symmetric = problem.symmetric and not self.matrix_free
+        self.spd = spd and not self.matrix_free
+        self.near_null_space = iterative and not self.matrix_free
+        #: the pattern of the current tangent matrix (None: not made on a pattern)
+        self.pattern = None
+        self.on_pattern = problem.assembles_on_pattern and not self.matrix_free
+        if self.on_pattern:        # a placeholder until the first step's pattern is known
+            self.J = diagonal_matrix(self.da)
+        else:
+            self.J = problem.create_jacobian(self.matrix_free)
+        self._set_matrix_options(self.J)
         self.snes = PETSc.SNES().create(comm=self.da.getComm())
         self.snes.setDM(self.da)
         self.snes.setFunction(problem.form_residual, self.R)
@@ -178,6 +182,37 @@ class NewtonSolver:
         except ValueError:
             self.destroy()        # before PetscFinalize: the python KSP context
             raise
+
+    def _set_matrix_options(self, J):
+        if self.symmetric:
+            J.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+            J.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
+        if self.spd:
+            J.setOption(PETSc.Mat.Option.SPD, True)
+        if self.near_null_space:
+            J.setNearNullSpace(rigid_body_near_null_space(self.grid))
+
+    def prepare(self, state, step=0):
+        """Begin a step (``step``: its number): the problem's state, and a
+        tangent matrix made anew on the step's own nonzero pattern when it
+        differs from the last one (it changes as particles reach other
+        nodes; in between, the symbolic factorization is reused).
+        Collective."""
+        self.problem.begin(state, step)
+        if not self.on_pattern:
+            return
+        changed = not state.pattern.same_as(self.pattern)
+        if not self.grid.comm.allreduce(changed, op=MPI.LOR):
+            return
+        J = self.problem.create_jacobian(False, state.pattern)
+        self._set_matrix_options(J)
+        if self._mf_operator():       # the operator stays the finite-difference one
+            self.snes.setJacobian(self.problem.form_jacobian, None, J)
+        else:
+            self.snes.setJacobian(self.problem.form_jacobian, J, J)
+        self.J.destroy()
+        self.J = J
+        self.pattern = state.pattern
 
     def destroy(self):
         """Free the PETSc objects now (collective); Python contexts held by
@@ -215,7 +250,7 @@ class NewtonSolver:
         """Newton on the incremental grid displacement of ``state``'s step
         (``step``: its number, for messages). Returns (u_owned, info)."""
         problem = self.problem
-        problem.begin(state, step)
+        self.prepare(state, step)
         fallbacks_before = self.fallback.fallbacks if self.fallback else 0
         self.X.getArray()[:] = initial_guess
         self.snes.setConvergenceHistory(length=1000, reset=True)
@@ -254,6 +289,18 @@ class NewtonSolver:
             "inverted": bool(self.grid.comm.allreduce(problem.inverted)),
         }
         return self.X.getArray(readonly=True).copy(), info
+
+
+def diagonal_matrix(da):
+    """An assembled identity on the DMDA's unknowns (AIJ, block size dof)."""
+    X = da.createGlobalVec()
+    sizes = (X.getLocalSize(), X.getSize())
+    J = PETSc.Mat().createAIJ((sizes, sizes), bsize=da.getDof(), nnz=(1, 0), comm=da.getComm())
+    X.set(1.0)
+    J.setDiagonal(X)
+    J.assemble()
+    X.destroy()
+    return J
 
 
 _LIVE_SOLVERS = weakref.WeakSet()

@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PKGS="python3-petsc4py python3-mpi4py python3-h5py-mpi python3-meshio python3-yaml python3-pytest
-python3-numpy python3-matplotlib python3-venv python3-setuptools python3-pip openmpi-bin"
+python3-numpy python3-numba python3-matplotlib python3-venv python3-setuptools python3-pip openmpi-bin"
 SUDO=""
 [ "$(id -u)" -eq 0 ] || SUDO="sudo"
 missing=""
@@ -27,4 +27,4 @@ SITE=$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purel
 echo "$PETSC_PY" > "$SITE/petsc4py-debian.pth"
 # --no-deps: Debian provides numpy 1.24/h5py-mpi/petsc4py; PyPI copies would shadow them (PLATFORM.md).
 .venv/bin/python -m pip install -q --no-deps --no-build-isolation -e . >/dev/null
-.venv/bin/python -c "import petsc4py, mpi4py, h5py, numpy, yaml, meshio; from petsc4py import PETSc; import pimpm; print('[setup] ok: PETSc', '.'.join(map(str, PETSc.Sys.getVersion())), 'numpy', numpy.__version__, 'h5py', h5py.__version__, 'mpi', h5py.get_config().mpi)"
+.venv/bin/python -c "import petsc4py, mpi4py, h5py, numpy, numba, yaml, meshio; from petsc4py import PETSc; import pimpm; print('[setup] ok: PETSc', '.'.join(map(str, PETSc.Sys.getVersion())), 'numpy', numpy.__version__, 'numba', numba.__version__, 'h5py', h5py.__version__, 'mpi', h5py.get_config().mpi)"

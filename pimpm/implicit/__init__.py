@@ -4,6 +4,6 @@
 :mod:`.momentum` (Sulsky & Kaul's momentum formulation) and :mod:`.shell`
 (the matrix-free tangent). The PETSc solver set-up is :mod:`pimpm.solver`."""
 from .problem import StepProblem, constraint_scale, residual_scale
-from .state import StepState
+from .state import StepState, TangentPattern
 
-__all__ = ["StepProblem", "StepState", "constraint_scale", "residual_scale"]
+__all__ = ["StepProblem", "StepState", "TangentPattern", "constraint_scale", "residual_scale"]

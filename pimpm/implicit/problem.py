@@ -15,11 +15,11 @@ Prescribed dofs are eliminated symmetrically: their rows are
 import numpy as np
 from petsc4py import PETSc
 
-from .. import assembly, faults, kinematics
+from .. import faults
+from ..kernels import particle_step
 from ..materials.base import youngs_modulus
-from ..materials.update import update_stress
 from ..stages import log_stage
-from ..transfer import gradient_at_particles, grid_to_particle, scatter
+from ..transfer import scatter
 from .momentum import assemble_projection, project_displacement
 from .shell import TangentShell
 
@@ -45,24 +45,40 @@ def constraint_scale(materials, grid, integrator, dt):
     return k
 
 
-def particle_kinematics(state, u_local):
-    """F_inc, F(t+dt) and the number of inverted particles (det F_inc <= 0)
-    for ghosted-local nodal displacements (G&W step 5)."""
-    grad_u = gradient_at_particles(state.node_index, state.G, u_local)
-    F_inc = state.kinematics.deformation_increment(
-        grad_u, state.radius, lambda: grid_to_particle(state.node_index, state.S, u_local))
-    F = np.matmul(F_inc, state.F_n)
-    return F_inc, F, kinematics.inverted_count(F_inc)
+class ParticleEvaluation:
+    """What the compiled kernel computed at one iterate (ghosted-local
+    kinematic displacement ``u``): F_inc, F, Cauchy stress, spatial tangent,
+    packed history and the internal force on the ghosted-local nodes, and
+    how many particles the increment inverts on this rank. The tangent reuses
+    it when SNES asks for the Jacobian at the iterate whose residual it
+    has just evaluated (G&W steps 4-5 are done once per iterate)."""
+
+    def __init__(self, state, n_nodes, dim):
+        n = len(state.F_n)
+        self.u = None
+        self.F_inc = np.empty((n, 3, 3))
+        self.F = np.empty((n, 3, 3))
+        self.sigma = np.empty((n, 3, 3))
+        self.c = np.empty((n, 3, 3, 3, 3))
+        self.history = np.empty_like(state.history_packed)
+        self.force = np.empty((n_nodes, dim))
+        self.inverted = 0
+
+    def evaluate(self, state, u_local, dim):
+        """Fill everything for ``u_local`` (G&W step 5 and the internal force)."""
+        st, mt = state, state.materials
+        self.inverted = particle_step.evaluate_particles(
+            st.kinematics.kernel_code, tuple(range(dim)), u_local, st.node_index, st.S, st.G,
+            st.radius if st.radius is not None else _NO_RADIUS, st.F_n, st.volume_n,
+            mt.models, mt.params, mt.material_of, st.history_packed, True, True,
+            self.F_inc, self.F, self.sigma, self.c, self.history, self.force)
+        self.u = u_local.copy()
+
+    def matches(self, u_local):
+        return self.u is not None and np.array_equal(self.u, u_local)
 
 
-def constitutive_update(state, F, tangent, F_inc=None):
-    """Cauchy stress (n, 3, 3) and, if ``tangent``, the spatial elasticity
-    tensor for every particle at the trial F (G&W steps 4-5). History starts
-    from the values committed at t; the updated one is left in
-    ``state.extra["history"]`` for the commit."""
-    sigma, c, state.extra["history"] = update_stress(state.material_groups, state.kinematics, F,
-                                                     state.history, tangent, F_inc)
-    return sigma, c
+_NO_RADIUS = np.zeros(0)
 
 
 class StepProblem:
@@ -98,12 +114,23 @@ class StepProblem:
         self.step = step
         self.inverted = False
         self.residual_evaluations = 0
+        if "evaluation" not in state.extra:
+            state.extra["evaluation"] = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim)
 
-    def create_jacobian(self, matrix_free):
+    @property
+    def assembles_on_pattern(self):
+        """Is the tangent a matrix on the step's own nonzero pattern (the
+        velocity formulation, assembled), to be made anew when the pattern
+        changes? (The momentum formulation's K R keeps the DMDA pattern.)"""
+        return not self.momentum
+
+    def create_jacobian(self, matrix_free, pattern=None):
         """The matrix SNES fills through :meth:`form_jacobian`: a shell whose
-        product is the analytic directional derivative (``matrix_free``), the
-        DMDA matrix, or in the momentum formulation the product K R on its own
-        (wider) pattern, fixed once here from the full stencil."""
+        product is the analytic directional derivative (``matrix_free``), an
+        AIJ matrix holding exactly the couplings of ``pattern`` (a
+        TangentPattern: nodes no particle reaches keep only their diagonal),
+        or in the momentum formulation the product K R on its own (wider)
+        pattern, fixed once here from the DMDA's full stencil."""
         da = self.grid.da
         if matrix_free:
             X = da.createGlobalVec()
@@ -120,9 +147,7 @@ class StepProblem:
             self.projection.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
             self.projection.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
             return self.K.matMult(self.projection)
-        J = da.createMat()
-        J.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
-        return J
+        return pattern_matrix(self.grid, pattern)
 
     def destroy(self):
         for obj in (self.diag, self.K, self.projection):
@@ -151,36 +176,39 @@ class StepProblem:
             st.extra["projection_base"] = (base, self.grid.owned_to_local(base))
         return project_displacement(st, self.grid, u_owned, u_local, st.extra["projection_base"])[1]
 
-    def _kinematics(self, u_owned, u_local):
-        """Particle kinematics, or None on every rank if any rank has an
-        inverted particle (collective, so that no rank is left in a sum)."""
-        F_inc, F, n_inverted = particle_kinematics(self.state, self.kinematic_displacement(u_owned, u_local))
-        if self.grid.comm.allreduce(n_inverted) > 0:
+    def evaluate(self, u_owned, u_local):
+        """The particles at the iterate u (compiled, G&W steps 4-5 and the
+        internal force), or None on every rank if any rank has an inverted
+        particle. Collective (so that no rank is left in a sum)."""
+        st = self.state
+        kinematic = self.kinematic_displacement(u_owned, u_local)
+        evaluation = st.extra["evaluation"]
+        if not evaluation.matches(kinematic):
+            with self._stage("Constitutive update"):
+                evaluation.evaluate(st, kinematic, self.grid.dim)
+        if self.grid.comm.allreduce(evaluation.inverted) > 0:
             self.inverted = True
             return None
-        return F_inc, F
+        return evaluation
 
     def inverts(self, state, u_owned):
         """True on every rank if the displacement ``u_owned`` inverts a
         particle anywhere. Collective."""
-        self.state = state
-        u_local = self.kinematic_displacement(u_owned, self.grid.owned_to_local(u_owned))
-        _, _, n_inverted = particle_kinematics(state, u_local)
-        return self.grid.comm.allreduce(n_inverted) > 0
+        self.begin(state, self.step)
+        return self.evaluate(u_owned, self.grid.owned_to_local(u_owned)) is None
 
     def unconstrained_residual(self, u_owned, u_local):
         """-Q of G&W step 3 before constraints: the integrator's balance of
         Fint, Fext and M a (owned dofs, in force units), or None if a particle
         inverted. Reactions are read from it."""
         st = self.state
-        kin = self._kinematics(u_owned, u_local)
-        if kin is None:
+        evaluation = self.evaluate(u_owned, u_local)
+        if evaluation is None:
             return None
-        F_inc, F = kin
-        with self._stage("Constitutive update"):
-            sigma, _ = constitutive_update(st, F, tangent=False, F_inc=F_inc)
-        st.extra["kinematics"] = (F_inc, F, sigma)      # reused by the particle update
-        return st.integrator.balance(self.internal_force(sigma, F_inc) - st.external_force, st, u_owned)
+        st.extra["kinematics"] = (evaluation.F_inc, evaluation.F, evaluation.sigma)   # for the particle update
+        st.extra["history_packed"] = evaluation.history
+        fint = self.grid.sum_to_owned(evaluation.force)
+        return st.integrator.balance(fint - st.external_force, st, u_owned)
 
     # ----------------------------------------------------------------- SNES callbacks
     def form_residual(self, snes, X, R):
@@ -189,46 +217,47 @@ class StepProblem:
         faults.checkpoint("residual", self.grid.comm.rank, self.step)
         u_local = self.grid.vec_to_local(X)
         u = X.getArray(readonly=True)
-        r = R.getArray()
         unconstrained = self.unconstrained_residual(u, u_local)
         if unconstrained is None:
             # A domain error: an infinite residual makes the line search back
             # off (bt) or SNES stop with DIVERGED_FNORM_NAN.
-            r[:] = np.inf
+            R.set(np.inf)
             return
-        r[:] = unconstrained / self.residual_scale
+        r = unconstrained / self.residual_scale
         r[st.fixed] = (st.constraint_scale / self.residual_scale) * (u[st.fixed] - st.fixed_value[st.fixed])
+        # setArray: the Vec's state (and so its cached norm) changes now, not
+        # whenever a numpy view of getArray() happens to be released
+        R.setArray(r)
 
     def form_jacobian(self, snes, X, J, P):
         st = self.state
         grid = self.grid
-        u_local = grid.vec_to_local(X)
-        kin = self._kinematics(X.getArray(readonly=True), u_local)
+        evaluation = self.evaluate(X.getArray(readonly=True), grid.vec_to_local(X))
         if P.getType() == PETSc.Mat.Type.PYTHON:
-            if kin is not None:
-                with self._stage("Constitutive update"):
-                    sigma, c = constitutive_update(st, kin[1], tangent=True, F_inc=kin[0])
+            if evaluation is not None:
                 project = (lambda v: project_displacement(st, grid, v, grid.owned_to_local(v))) \
                     if self.momentum else None
-                P.getPythonContext().update(st, sigma, c, kin[0], self.residual_scale, project)
+                P.getPythonContext().update(st, evaluation.sigma, evaluation.c, evaluation.F_inc,
+                                            self.residual_scale, project)
             P.assemble()
             if J != P:
                 J.assemble()
             return
         K = self.K if self.momentum else P
+        pattern = st.pattern
         with self._stage("Assembly"):
             K.zeroEntries()
-        if kin is not None and len(kin[1]):
-            F_inc, F = kin
-            with self._stage("Constitutive update"):
-                sigma, c = constitutive_update(st, F, tangent=True, F_inc=F_inc)
-            with self._stage("Assembly"):
-                Ke = st.kinematics.element_tangents(sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius)
-                Ke = assembly.sum_by_group(Ke[st.group_order], st.group_starts)
-                nodes = st.group_nodes.astype(PETSc.IntType)
-                K.setValuesBlockedLocalRCV(nodes, nodes, Ke.reshape(len(nodes), -1),
-                                           addv=PETSc.InsertMode.ADD_VALUES)
-        with self._stage("Assembly"):
+            if evaluation is not None and len(st.F_n):
+                values = st.extra.get("tangent_values")
+                if values is None:
+                    values = st.extra["tangent_values"] = np.empty(len(pattern.scalar_indices))
+                particle_step.tangent_blocks(
+                    st.kinematics.kernel_code, tuple(range(grid.dim)), st.node_index, st.active, st.S, st.G,
+                    st.radius if st.radius is not None else _NO_RADIUS, st.volume_n,
+                    evaluation.F_inc, evaluation.sigma, evaluation.c, grid.ghost_ijk,
+                    pattern.width, pattern.indptr, pattern.slot_position, values)
+                K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices, values,
+                                    addv=PETSc.InsertMode.ADD_VALUES)
             K.assemble()
             if self.momentum:
                 assemble_projection(st, self.projection, self.diag, self.row_offset, grid.dim)
@@ -243,3 +272,29 @@ class StepProblem:
             P.scale(1.0 / self.residual_scale)
             if J != P:
                 J.assemble()
+
+
+def pattern_matrix(grid, pattern):
+    """An AIJ matrix (block size dim, the DMDA's numbering) holding exactly
+    the couplings of ``pattern``: preallocated for the DMDA's box stencil,
+    filled with zeros on the pattern and assembled, which drops the unused
+    room; an entry outside the pattern afterwards is an error. Collective."""
+    dim = grid.dim
+    X = grid.da.createGlobalVec()
+    sizes = (X.getLocalSize(), X.getSize())
+    X.destroy()
+    own, other = grid.box_preallocation(pattern.width)
+    J = PETSc.Mat().create(comm=grid.da.getComm())
+    J.setSizes((sizes, sizes), bsize=dim)
+    J.setType(PETSc.Mat.Type.AIJ)
+    J.setPreallocationNNZ((np.repeat(own * dim, dim).astype(PETSc.IntType),
+                           np.repeat(other * dim, dim).astype(PETSc.IntType)))
+    lgmap = grid.da.getLGMap()
+    J.setLGMap(lgmap, lgmap)
+    J.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
+                        np.zeros(len(pattern.scalar_indices)), addv=PETSc.InsertMode.ADD_VALUES)
+    J.assemble()
+    J.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, True)
+    # every assembly sends the same off-rank entries: keep the communication set-up
+    J.setOption(PETSc.Mat.Option.SUBSET_OFF_PROC_ENTRIES, True)
+    return J

@@ -18,9 +18,10 @@ class StepState:
     F_n: np.ndarray               # (n, 3, 3) deformation gradient at t
     volume_n: np.ndarray          # (n,) volume at t
     material_groups: list         # [(material, particle index array)]
-    group_order: np.ndarray       # particles sorted by the node set they touch
-    group_starts: np.ndarray      # first particle of each group in that order
-    group_nodes: np.ndarray       # (n_groups, nn) ghosted-local nodes of each group
+    materials: object             # pimpm.materials.update.MaterialTable: the kernels' view
+    history_packed: np.ndarray    # (n, width) material history at t, packed for the kernels
+    active: np.ndarray            # (n, nn) footprint entries with a weight or a gradient
+    pattern: object               # TangentPattern: the tangent's couplings this step
     mass: np.ndarray              # owned dofs: lumped nodal mass (repeated per component)
     velocity: np.ndarray          # owned dofs: v_g(t) (eq. 3)
     acceleration: np.ndarray      # owned dofs: a_g(t)
@@ -35,6 +36,9 @@ class StepState:
     particle_mass: np.ndarray = None  # (n,) particle masses (momentum formulation)
     projection_floor: float = 0.0     # nodes with no more mass keep their own u (momentum formulation)
     previous_force: np.ndarray = None  # owned dofs: Fint(t) - Fext(t), for integrators that use it (HHT)
+    group_order: np.ndarray = None    # momentum formulation: particles sorted by the node set they touch
+    group_starts: np.ndarray = None   # first particle of each group in that order
+    group_nodes: np.ndarray = None    # (n_groups, nn) ghosted-local nodes of each group
 
     @property
     def dynamic(self):
@@ -65,6 +69,30 @@ class StepState:
         noise (and leave a numerically zero Jacobian column)."""
         return self.fixed | ~(self.mass > self.projection_floor)
 
+    def committed_history(self, packed):
+        """The history dict (name -> per-particle array) after the step, from
+        the kernels' packed rows."""
+        return self.materials.unpack(packed, self.history)
+
     def inertia(self, u):
         """M a(t+dt) as a function of u (G&W eq. 16 for the trapezoidal rule)."""
         return self.mass * self.grid_kinematics(u)[1]
+
+
+@dataclass
+class TangentPattern:
+    """The couplings of the tangent in one step, from the particle
+    footprints (:func:`pimpm.kernels.pattern.block_pattern`): a block CSR
+    over the ghosted-local nodes, each block's (row, stencil slot)
+    position, and the scalar CSR PETSc takes the values in."""
+    width: int                   # largest node distance within a footprint, per axis
+    indptr: np.ndarray
+    indices: np.ndarray
+    slot_position: np.ndarray
+    scalar_indptr: np.ndarray
+    scalar_indices: np.ndarray
+
+    def same_as(self, other):
+        return (other is not None and self.width == other.width
+                and np.array_equal(self.indptr, other.indptr)
+                and np.array_equal(self.indices, other.indices))

@@ -78,7 +78,7 @@ class Explicit:
         t0 = wallclock.perf_counter()
         comm, grid, p, dim = sim.comm, sim.grid, sim.particles, sim.dim
         with log_stage(sim.stages["P2G"]):
-            node_index, S, G, _ = sim.footprint()
+            node_index, S, G = sim.footprint()
             mass, velocity, _, fext = sim.nodal_state(node_index, S)              # eq. 2-4
             cons = bc.build_constraints(grid, sim.shape, sim.rigid, sim.rigid_bodies,
                                         sim.boundary, mass, dt, sim.mass_floor)

@@ -34,7 +34,7 @@ def grid_fields(sim):
     grid = sim.grid
     if sim.last_grid is None:
         n = grid.n_owned_nodes * sim.dim
-        node_index, S, _, _ = sim.footprint()
+        node_index, S, _ = sim.footprint()
         mass, velocity, acceleration, _ = sim.nodal_state(node_index, S)
         sim.last_grid = {"mass": mass, "velocity": velocity, "acceleration": acceleration,
                          "displacement_increment": np.zeros(n)}

@@ -66,6 +66,8 @@ class Material:
     parameters = {}
     #: is the consistent tangent symmetric? (measured by tests/mpi/jacobian_check.py)
     symmetric_tangent = True
+    #: the model's code in the compiled kernels (pimpm.kernels.material_point)
+    kernel_model = None
 
     def __init__(self, shear_modulus, bulk_modulus, density):
         self.shear_modulus = float(shear_modulus)
@@ -90,6 +92,11 @@ class Material:
     def p_wave_modulus(self):
         """kappa + 4/3 mu (uniaxial-strain stiffness)."""
         return self.bulk_modulus + 4.0 / 3.0 * self.shear_modulus
+
+    def packed_parameters(self):
+        """The parameters as the compiled kernels take them: [mu, kappa, yield
+        stress, hardening modulus, softening strain, softening modulus]."""
+        return np.array([self.shear_modulus, self.bulk_modulus, 0.0, 0.0, np.inf, 0.0])
 
     def stress(self, F):
         """Cauchy stress, shape (n, 3, 3)."""
@@ -143,3 +150,7 @@ class PlasticParameters:
         self.hardening_modulus = float(hardening_modulus)
         self.softening_strain = float(softening_strain)
         self.softening_modulus = float(softening_modulus)
+
+    def packed_parameters(self):
+        return np.array([self.shear_modulus, self.bulk_modulus, self.yield_stress,
+                         self.hardening_modulus, self.softening_strain, self.softening_modulus])

@@ -15,6 +15,7 @@ appendix A, eq. 11 (compressible neo-Hookean).
 """
 import numpy as np
 
+from ..kernels import material_point as kernel_codes
 from .base import Material
 from .tensors import as_F as _as_F, I3 as _I, II as _II, IS as _IS, det as _det3, outer as _outer, trace as _trace
 
@@ -143,6 +144,7 @@ class UncoupledNeoHookean(Material):
     """Uncoupled neo-Hookean of Guilkey & Weiss (2003), eq. 17-21."""
 
     name = "neo_hookean"
+    kernel_model = kernel_codes.NEO_HOOKEAN
 
     def _kernel(self, F, tangent):
         return uncoupled_neo_hookean(F, self.shear_modulus, self.bulk_modulus, tangent=tangent)
@@ -156,6 +158,7 @@ class CompressibleNeoHookean(Material):
     lambda = kappa - 2/3 mu."""
 
     name = "neo_hookean_compressible"
+    kernel_model = kernel_codes.NEO_HOOKEAN_COMPRESSIBLE
 
     def _kernel(self, F, tangent):
         return compressible_neo_hookean(F, self.lame_lambda, self.shear_modulus, tangent=tangent)

@@ -19,6 +19,7 @@ minor symmetry in general, which the assembly does not assume.
 """
 import numpy as np
 
+from ..kernels import material_point as kernel_codes
 from .base import Material, PlasticParameters
 from .tensors import I3, II, IDEV, as_F as _as_F
 
@@ -93,6 +94,7 @@ class SmallStrainElastic(Material):
     bars; the functions above). Not objective: for small rotations."""
 
     name = "linear_elastic"
+    kernel_model = kernel_codes.LINEAR_ELASTIC
     # measured 5% asymmetric for j2_small_strain (tests/mpi/jacobian_check.py);
     # linear_elastic shares its kinematics and is not measured: LU for both
     symmetric_tangent = False
@@ -138,6 +140,7 @@ class J2SmallStrain(PlasticParameters, SmallStrainElastic):
     work density."""
 
     name = "j2_small_strain"
+    kernel_model = kernel_codes.J2_SMALL_STRAIN
     history = {"strain": (3, 3), "deformation_gradient": (3, 3), "plastic_strain": (3, 3),
                "eq_plastic_strain": (), "plastic_work": ()}
 

@@ -98,7 +98,7 @@ if plastic:
     assert n_plastic > 10, n_plastic
 solver = sim.solver
 problem = sim.problem
-problem.begin(state)
+solver.prepare(state)
 rng = np.random.default_rng(1 + comm.rank)
 n_local = len(state.mass)
 u = np.where(state.fixed, state.fixed_value, 0.02 * rng.standard_normal(n_local))

@@ -53,7 +53,7 @@ def gsum(x):
     return comm.allreduce(np.asarray(x, float), op=MPI.SUM)
 
 
-node_index, S, G, _ = sim.footprint()
+node_index, S, G = sim.footprint()
 mass, velocity, acceleration, _ = sim.nodal_state(node_index, S)
 dim = sim.dim
 M = mass.reshape(-1, dim)[:, 0]

@@ -1,0 +1,119 @@
+"""The nonzero pattern of the consistent tangent, from the particle
+footprints of one step: node i couples with node j when some particle's
+shape functions reach both (G&W step 3). Nodes are ghosted-local DMDA
+nodes; a pattern is a block CSR (one dim x dim block per coupled node pair,
+columns sorted) plus, for the tangent kernel, the position of each coupling
+given as (row node, stencil slot), so that the kernel adds a particle's
+block where it belongs without a search.
+
+The values are kept in the layout of the equivalent scalar CSR (row
+(i, a) holds the blocks of node row i, component row a, one after the
+other), so that PETSc takes them one scalar row per call
+(``MatSetValuesLocal``; :func:`scalar_csr` gives its indptr and indices)
+rather than one call per block.
+
+Nodes that no particle reaches (the empty background grid) only get their
+diagonal block: they are out of the coupled system and cost the direct
+solver nothing (docs/PERFORMANCE.md).
+"""
+import numpy as np
+
+from .jit import jit
+
+
+@jit
+def active_entries(S, G):
+    """(n, nn) True where a footprint entry carries a weight or a gradient
+    (GIMP and boundary-modified B-splines list nodes with both zero)."""
+    n, nn = S.shape
+    dim = G.shape[2]
+    out = np.zeros((n, nn), dtype=np.bool_)
+    for p in range(n):
+        for k in range(nn):
+            on = S[p, k] != 0.0
+            for d in range(dim):
+                on = on or G[p, k, d] != 0.0
+            out[p, k] = on
+    return out
+
+
+@jit
+def stencil_slot(i, j, node_ijk, dim, width):
+    """Slot of node j in the (2 width + 1)^dim box around node i (x
+    fastest), both ghosted-local nodes; ``node_ijk`` (n_nodes, dim) holds
+    every node's ghosted-local multi-index (:meth:`pimpm.grid.Grid.ghost_ijk`)."""
+    side = 2 * width + 1
+    slot = 0
+    for d in range(dim - 1, -1, -1):
+        slot = slot * side + node_ijk[j, d] - node_ijk[i, d] + width
+    return slot
+
+
+@jit
+def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes, ghost_x, ghost_y):
+    """Block CSR of the couplings (indptr over all ghosted-local nodes,
+    column node indices sorted; ``ghost_x``, ``ghost_y``: the ghosted box's
+    nodes along x and y) and slot_position (n_nodes, slots): the
+    block's position in the CSR, -1 where uncoupled. Every owned node keeps
+    its diagonal block (the mass term and prescribed rows need it)."""
+    side = 2 * width + 1
+    slots = side ** dim
+    centre = (slots - 1) // 2
+    mark = np.zeros((n_nodes, slots), dtype=np.bool_)
+    n, nn = node_index.shape
+    for p in range(n):
+        for k in range(nn):
+            if not active[p, k]:
+                continue
+            i = node_index[p, k]
+            for m in range(nn):
+                if active[p, m]:
+                    mark[i, stencil_slot(i, node_index[p, m], node_ijk, dim, width)] = True
+    for i in owned_nodes:
+        mark[i, centre] = True
+    indptr = np.zeros(n_nodes + 1, dtype=np.int64)
+    for i in range(n_nodes):
+        indptr[i + 1] = indptr[i] + np.sum(mark[i])
+    indices = np.empty(indptr[n_nodes], dtype=np.int64)
+    slot_position = np.full((n_nodes, slots), -1, dtype=np.int64)
+    gx = ghost_x
+    gy = ghost_y if dim == 3 else 1
+    for i in range(n_nodes):
+        pos = indptr[i]
+        for s in range(slots):          # slots in increasing column order
+            if mark[i, s]:
+                dx = s % side - width
+                dy = (s // side) % side - width
+                dz = s // (side * side) - width if dim == 3 else 0
+                indices[pos] = i + dx + gx * (dy + gy * dz)
+                slot_position[i, s] = pos
+                pos += 1
+    return indptr, indices, slot_position
+
+
+@jit
+def scalar_csr(indptr, indices, dim):
+    """The scalar CSR (indptr over ghosted-local dofs, dof indices) of a
+    block CSR whose values are stored row-oriented: block k of node row i,
+    entry (a, b), is value dim^2 indptr[i] + a L_i dim + k dim + b with L_i
+    the row's number of blocks (:func:`value_offset`)."""
+    n_nodes = len(indptr) - 1
+    sp = np.zeros(n_nodes * dim + 1, dtype=np.int64)
+    si = np.empty(len(indices) * dim * dim, dtype=np.int64)
+    for i in range(n_nodes):
+        L = indptr[i + 1] - indptr[i]
+        for a in range(dim):
+            row = i * dim + a
+            start = dim * dim * indptr[i] + a * L * dim
+            sp[row + 1] = start + L * dim
+            for k in range(L):
+                for b in range(dim):
+                    si[start + k * dim + b] = indices[indptr[i] + k] * dim + b
+    return sp, si
+
+
+@jit
+def value_offset(indptr, i, pos, dim):
+    """Offset of entry (0, 0) of block ``pos`` (in node row i) in the
+    row-oriented values; entry (a, b) is at + a L_i dim + b."""
+    return dim * dim * indptr[i] + (pos - indptr[i]) * dim

@@ -1,0 +1,208 @@
+"""The compiled kernels (pimpm.kernels) against their numpy references: the
+material points of every model (pimpm.materials), the plane-stress
+thickness solve (pimpm.kinematics.PlaneStress), the fused particle
+evaluation (kinematics, stress, internal force: pimpm.assembly and
+pimpm.kinematics) and the tangent blocks added into the pattern's values
+(pimpm.assembly.element_tangents and hoop_tangents). Agreement to round-off
+(1e-12 relative), in 2D, plane stress, axisymmetric and 3D, for linear,
+GIMP and B-spline shape functions, elastic and plastic."""
+import numpy as np
+import pytest
+
+import petsc4py
+
+petsc4py.init([])
+from mpi4py import MPI  # noqa: E402
+
+from pimpm import assembly  # noqa: E402
+from pimpm import materials as M  # noqa: E402
+from pimpm.config import validate  # noqa: E402
+from pimpm.kernels import material_point as mp  # noqa: E402
+from pimpm.kernels import particle_step  # noqa: E402
+from pimpm.kinematics import PlaneStress  # noqa: E402
+from pimpm.materials.update import MaterialTable, update_stress  # noqa: E402
+from pimpm.simulation import Simulation  # noqa: E402
+from pimpm.transfer import gradient_at_particles, grid_to_particle, scatter  # noqa: E402
+
+RNG = np.random.default_rng(7)
+PLASTIC = dict(yield_stress=2.0e5, hardening_modulus=1.0e6)
+SOFTENING = dict(yield_stress=2.0e5, hardening_modulus=1.0e6, softening_strain=0.01,
+                 softening_modulus=5.0e5)
+MODELS = [
+    M.UncoupledNeoHookean(6e6, 6e7, 10.0), M.CompressibleNeoHookean(6e6, 6e7, 10.0),
+    M.SmallStrainElastic(6e6, 6e7, 10.0), M.J2SmallStrain(6e6, 6e7, 10.0, **PLASTIC),
+    M.J2SmallStrain(6e6, 6e7, 10.0, **SOFTENING), M.J2FiniteStrain(6e6, 6e7, 10.0, **PLASTIC),
+    M.J2FiniteStrain(6e6, 6e7, 10.0, **SOFTENING)]
+
+
+def random_F(n, scale):
+    F = np.eye(3) + scale * RNG.standard_normal((4 * n, 3, 3))
+    return F[np.linalg.det(F) > 0.3][:n]
+
+
+def random_history(material, n):
+    """History values at t of the kind a run produces (tensors near 1 or 0,
+    non-negative scalars), with some particles already plastic."""
+    history = {}
+    for name, shape in material.history.items():
+        if name == "deformation_gradient":
+            history[name] = random_F(n, 0.05)
+        elif name == "elastic_left_cauchy_green":
+            B = random_F(n, 0.03)
+            history[name] = B @ np.swapaxes(B, 1, 2)
+        elif shape == (3, 3):
+            A = 0.01 * RNG.standard_normal((n, 3, 3))
+            history[name] = 0.5 * (A + np.swapaxes(A, 1, 2))
+        else:
+            history[name] = np.abs(0.01 * RNG.standard_normal(n))
+    return history
+
+
+def relative(a, b):
+    return np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300)
+
+
+def compiled_points(material, F, history, plane_stress=False, F_inc=None):
+    n = len(F)
+    table = MaterialTable([(material, np.arange(n))], n)
+    packed = table.pack(history)
+    out = np.zeros_like(packed)
+    sigma, c = np.zeros((n, 3, 3)), np.zeros((n, 3, 3, 3, 3))
+    F = F.copy()
+    F_inc = np.zeros((0, 3, 3)) if F_inc is None else F_inc.copy()
+    mp.update_points(table.models, table.params, table.material_of, F, packed, out, sigma, c, True,
+                     plane_stress, F_inc)
+    return sigma, c, table.unpack(out, history), F, F_inc
+
+
+@pytest.mark.parametrize("material", MODELS, ids=lambda m: f"{m.name}-{m.packed_parameters()[4]:g}")
+def test_material_points_equal_the_numpy_models(material):
+    n = 200
+    F = random_F(n, 0.2)
+    history = random_history(material, n)
+    sigma, c, new = material.update(F.copy(), {k: v.copy() for k, v in history.items()}, True)
+    sigma_k, c_k, new_k, _, _ = compiled_points(material, F, history)
+    assert relative(sigma_k, sigma) < 1e-12
+    assert relative(c_k, c) < 1e-12
+    for name in material.history:
+        assert relative(new_k[name], new[name]) < 1e-12, name
+    if "eq_plastic_strain" in history:      # the plastic branch is exercised
+        assert np.sum(new["eq_plastic_strain"] > history["eq_plastic_strain"]) > n // 2
+
+
+@pytest.mark.parametrize("material", [MODELS[0], MODELS[3], MODELS[5]], ids=lambda m: m.name)
+def test_plane_stress_thickness_solve_equals_the_numpy_kinematics(material):
+    n = 100
+    F = np.zeros((n, 3, 3))
+    F[:, :2, :2] = random_F(n, 0.1)[:, :2, :2]
+    F[:, 2, 2] = 1.0
+    F = F[np.linalg.det(F) > 0.3]
+    n = len(F)
+    F_inc = F.copy()
+    history = random_history(material, n)
+    if "deformation_gradient" in history:
+        history["deformation_gradient"][:, :2, 2] = history["deformation_gradient"][:, 2, :2] = 0.0
+    F_ref, F_inc_ref = F.copy(), F_inc.copy()
+    sigma, c, _ = PlaneStress().material_update(material, F_ref, history, True, F_inc_ref)
+    sigma_k, c_k, _, F_k, F_inc_k = compiled_points(material, F, history, True, F_inc)
+    # sigma33 = 0 to the solve's tolerance, 1e-13 (|c3333| + max |sigma|)
+    assert np.all(np.abs(sigma_k[:, 2, 2]) <= 1e-13 * (np.abs(c_k[:, 2, 2, 2, 2]) + np.abs(sigma_k).max(axis=(1, 2))))
+    assert relative(F_k, F_ref) < 1e-12 and relative(F_inc_k, F_inc_ref) < 1e-12
+    assert relative(sigma_k, sigma) < 1e-10
+    assert relative(c_k[:, :2, :2, :2, :2], c[:, :2, :2, :2, :2]) < 1e-10
+
+
+def small_simulation(kinematics, shape, model, three_d=False):
+    """A few particles of every kind on a small grid, one step taken so that
+    F and the history are not trivial; returns the simulation and the
+    state of its next step."""
+    material = {"model": model, "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7, "density": 10.0}
+    if model.startswith("j2"):
+        material.update(yield_stress=2.0e5, hardening_modulus=1.0e6)
+    raw = {"grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8], "shape_functions": shape},
+           "kinematics": kinematics,
+           "materials": {"m": material},
+           "bodies": [{"name": "a", "material": "m", "particles_per_cell": 2, "velocity": [1.0, 2.0],
+                       "geometry": {"type": "box", "lower": [0.5, 0.5], "upper": [3.0, 2.5]}}],
+           "time": {"integrator": "newmark", "dt": 0.01, "end_time": 1.0}}
+    if three_d:
+        raw["grid"].update(lower=[0.0, 0.0, 0.0], upper=[2.5, 2.0, 2.0], cells=[5, 4, 4])
+        raw["bodies"][0].update(velocity=[1.0, 2.0, -1.0],
+                                geometry={"type": "box", "lower": [0.5, 0.5, 0.5], "upper": [1.5, 1.5, 1.5]})
+        raw.pop("kinematics")
+    sim = Simulation(validate(raw), MPI.COMM_SELF)
+    sim.advance(0.01)
+    state, _ = sim.prepare_step(0.01)
+    return sim, state
+
+
+CASES = [("plane_strain", "linear", "neo_hookean", False), ("plane_strain", "gimp", "j2_finite_strain", False),
+         ("plane_strain", "bspline", "j2_small_strain", False), ("plane_stress", "linear", "j2_small_strain", False),
+         ("axisymmetric", "gimp", "neo_hookean_compressible", False),
+         ("axisymmetric", "linear", "j2_finite_strain", False),
+         ("3d", "gimp", "neo_hookean", True), ("3d", "bspline", "j2_finite_strain", True)]
+
+
+@pytest.mark.parametrize("kinematics,shape,model,three_d", CASES)
+def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinematics, shape, model, three_d):
+    sim, st = small_simulation(kinematics, shape, model, three_d)
+    grid, dim = sim.grid, sim.dim
+    u = 0.01 * RNG.standard_normal((grid.n_local_nodes, dim))
+    # numpy reference: kinematics, stress update, internal force, element blocks
+    grad = gradient_at_particles(st.node_index, st.G, u)
+    F_inc = st.kinematics.deformation_increment(grad, st.radius,
+                                                lambda: grid_to_particle(st.node_index, st.S, u))
+    F = np.matmul(F_inc, st.F_n)
+    sigma, c, history = update_stress(st.material_groups, st.kinematics, F, st.history, True, F_inc)
+    pairs = st.kinematics.internal_force_pairs(sigma, F_inc, st.G, st.S, st.volume_n, st.radius)
+    force = scatter(st.node_index, pairs, grid.n_local_nodes)
+    blocks = st.kinematics.element_tangents(sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius)
+    n, nn = st.S.shape
+    dense = np.zeros((grid.n_local_nodes * dim,) * 2)
+    dofs = (st.node_index[:, :, None] * dim + np.arange(dim)).reshape(n, nn * dim)
+    for p in range(n):                      # test code: a loop over particles is fine here
+        dense[np.ix_(dofs[p], dofs[p])] += blocks[p]
+    # compiled
+    sim.problem.begin(st)
+    ev = st.extra["evaluation"]
+    ev.evaluate(st, u, dim)
+    assert ev.inverted == 0
+    assert relative(ev.F_inc, F_inc) < 1e-12 and relative(ev.F, F) < 1e-12
+    assert relative(ev.sigma, sigma) < 1e-10
+    assert relative(ev.force, force) < 1e-10
+    new = st.committed_history(ev.history)
+    for name in st.materials.groups[0][0].history:
+        assert relative(new[name], history[name]) < 1e-10, name
+    pattern = st.pattern
+    values = np.empty(len(pattern.scalar_indices))
+    particle_step.tangent_blocks(
+        st.kinematics.kernel_code, tuple(range(dim)), st.node_index, st.active, st.S, st.G,
+        st.radius if st.radius is not None else np.zeros(0), st.volume_n, ev.F_inc, ev.sigma, ev.c,
+        grid.ghost_ijk, pattern.width, pattern.indptr, pattern.slot_position, values)
+    compiled = np.zeros_like(dense)
+    rows = np.repeat(np.arange(len(pattern.scalar_indptr) - 1), np.diff(pattern.scalar_indptr))
+    np.add.at(compiled, (rows, pattern.scalar_indices), values)
+    assert relative(compiled, dense) < 1e-10
+    # the pattern holds every coupling and nothing but them (and the owned diagonals)
+    coupled = np.zeros((grid.n_local_nodes,) * 2, dtype=bool)
+    for p in range(n):
+        on = st.node_index[p][st.active[p]]
+        coupled[np.ix_(on, on)] = True
+    coupled[grid.owned_local_nodes, grid.owned_local_nodes] = True
+    in_pattern = np.zeros_like(coupled)
+    block_rows = np.repeat(np.arange(len(pattern.indptr) - 1), np.diff(pattern.indptr))
+    in_pattern[block_rows, pattern.indices] = True
+    assert np.array_equal(in_pattern, coupled)
+    assert np.all(np.diff(pattern.indices)[np.diff(block_rows) == 0] > 0)     # sorted rows
+
+
+def test_a_particle_increment_that_inverts_is_counted():
+    sim, st = small_simulation("plane_strain", "linear", "neo_hookean")
+    sim.problem.begin(st)
+    u = np.zeros((sim.grid.n_local_nodes, 2))
+    ev = st.extra["evaluation"]
+    ev.evaluate(st, u, 2)
+    assert ev.inverted == 0
+    u[:, 0] = -3.0 * sim.grid.lower[0] - 3.0 * sim.grid.ghost_ijk[:, 0] * sim.grid.spacing[0]   # x -> -2x
+    ev.evaluate(st, u, 2)
+    assert ev.inverted == len(st.F_n)
