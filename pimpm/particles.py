@@ -42,36 +42,44 @@ class ParticleSet:
 
 
 def migrate(comm, particle_set, destination):
-    """Send every particle to rank ``destination[p]`` with one Alltoallv.
+    """Send every particle to rank ``destination[p]``.
 
-    All fields are packed as float64 columns (integer fields are exact below
-    2**53) and restored to their dtypes. Collective: every rank must call it.
-    """
-    size = comm.size
-    names = sorted(particle_set.fields)
-    arrays = [particle_set.fields[k] for k in names]
-    n = len(particle_set)
-    widths = [int(np.prod(a.shape[1:])) for a in arrays]
-    ncol = sum(widths)
-    order = np.argsort(destination, kind="stable")
-    packed = np.empty((n, ncol))
-    col = 0
-    for a, w in zip(arrays, widths):
-        packed[:, col:col + w] = a.reshape(n, w)[order]
-        col += w
-    send_counts = np.bincount(destination, minlength=size).astype(np.int64)
+    Only the particles that change rank travel: they are packed as float64
+    columns (integer fields are exact below 2**53), exchanged with one
+    ``Alltoallv`` and appended to the ones that stay; when no particle
+    changes rank anywhere nothing is packed at all. Collective: every rank
+    must call it."""
+    size, rank = comm.size, comm.rank
+    destination = np.asarray(destination)
+    leaving = destination != rank
+    send_counts = np.bincount(destination[leaving], minlength=size).astype(np.int64)
     recv_counts = np.empty(size, dtype=np.int64)
     comm.Alltoall(send_counts, recv_counts)
+    if not comm.allreduce(int(send_counts.sum()) > 0, op=MPI.LOR):
+        return
+    names = sorted(particle_set.fields)
+    arrays = [particle_set.fields[k] for k in names]
+    widths = [int(np.prod(a.shape[1:])) for a in arrays]
+    ncol = sum(widths)
+    go = np.flatnonzero(leaving)
+    go = go[np.argsort(destination[go], kind="stable")]
+    packed = np.empty((len(go), ncol))
+    col = 0
+    for a, w in zip(arrays, widths):
+        packed[:, col:col + w] = a.reshape(len(a), w)[go]
+        col += w
     n_new = int(recv_counts.sum())
     received = np.empty((n_new, ncol))
     send_displ = np.concatenate(([0], np.cumsum(send_counts)[:-1])) * ncol
     recv_displ = np.concatenate(([0], np.cumsum(recv_counts)[:-1])) * ncol
     comm.Alltoallv([packed, send_counts * ncol, send_displ, MPI.DOUBLE],
                    [received, recv_counts * ncol, recv_displ, MPI.DOUBLE])
+    stay = ~leaving
     col = 0
     fields = {}
     for name, a, w in zip(names, arrays, widths):
-        fields[name] = received[:, col:col + w].reshape((n_new,) + a.shape[1:]).astype(a.dtype)
+        arrived = received[:, col:col + w].reshape((n_new,) + a.shape[1:]).astype(a.dtype)
+        fields[name] = np.concatenate([a[stay], arrived])
         col += w
     particle_set.fields = fields
 

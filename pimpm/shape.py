@@ -9,6 +9,8 @@ import itertools
 
 import numpy as np
 
+from .kernels import transfer as kernels
+
 
 def tensor_product(w, dw):
     """Weights S = prod_d w_d and gradients G_d = dw_d prod_{e != d} w_e from
@@ -33,6 +35,19 @@ class TensorProductShape:
                                                                      repeat=dim)], dtype=np.int64)
         self.nodes_per_particle = len(self.offsets)
 
+    def footprint(self, x, grid, half_size=None):
+        """Compiled :meth:`evaluate` in the grid's ghosted-local numbering:
+        ``(node_index, S, G)`` with node_index (n, nn) ghosted-local nodes."""
+        n, nn = len(x), self.nodes_per_particle
+        node_index = np.empty((n, nn), dtype=np.int64)
+        S = np.empty((n, nn))
+        G = np.empty((n, nn, self.dim))
+        half = np.zeros((0, self.dim)) if half_size is None else np.ascontiguousarray(half_size, dtype=float)
+        kernels.footprint(self.kernel_kind, tuple(range(self.dim)), np.ascontiguousarray(x, dtype=float),
+                          grid.lower, grid.spacing, grid.cells, half, grid.ghost_start,
+                          grid.ghost_shape, node_index, S, G)
+        return node_index, S, G
+
 
 class LinearShape(TensorProductShape):
     """Bilinear / trilinear tent functions (MPM intro Fig. 2-3): each particle
@@ -40,6 +55,7 @@ class LinearShape(TensorProductShape):
 
     name = "linear"
     stencil_width = 1
+    kernel_kind = kernels.LINEAR
 
     def evaluate(self, x, lower, spacing, cells, half_size=None):
         """Return ``(nodes, S, G)`` for positions ``x`` (n, dim):
@@ -99,6 +115,7 @@ class GIMPShape(TensorProductShape):
     name = "gimp"
     stencil_width = 2
     nodes_per_axis = 3
+    kernel_kind = kernels.GIMP
 
     def evaluate(self, x, lower, spacing, cells, half_size=None):
         xi = (x - lower) / spacing
@@ -145,6 +162,7 @@ class QuadraticBSplineShape(TensorProductShape):
     name = "bspline"
     stencil_width = 2
     nodes_per_axis = 3
+    kernel_kind = kernels.BSPLINE
 
     @staticmethod
     def weights_1d(xi, cells):

@@ -146,10 +146,7 @@ class Simulation:
         """Shape functions of the material particles on the reset grid:
         ghosted-local node of each (particle, node) pair, weights and
         gradients."""
-        p = self.particles
-        nodes, S, G = self.shape.evaluate(p["x"], self.grid.lower, self.grid.spacing,
-                                          self.grid.cells, self.particle_half_sizes())
-        return self.grid.local_node_index(nodes), S, G
+        return self.shape.footprint(self.particles["x"], self.grid, self.particle_half_sizes())
 
     def particle_half_sizes(self):
         """Current particle-domain half sizes for GIMP: the initial h/(2 ppc)

@@ -1,10 +1,17 @@
-"""Particle <-> grid transfers as vectorized scatters and gathers.
-
-Scatters use ``np.bincount`` over (particle, node) pairs (PLATFORM.md: ~40x
-faster than ``np.add.at``); the result lives on this rank's ghosted local
-nodes and is summed across ranks by the caller with DMDA localToGlobal(ADD).
+"""Particle <-> grid transfers: scatters of particle quantities to the
+ghosted-local nodes and gathers of nodal quantities at the particles
+(MPM introduction eq. 2-10), run by the compiled kernels of
+:mod:`pimpm.kernels.transfer`. A scatter's result lives on this rank's
+ghosted local nodes; the caller sums it across ranks with DMDA
+localToGlobal(ADD) (:meth:`pimpm.grid.Grid.sum_to_owned`).
 """
 import numpy as np
+
+from .kernels import transfer as kernels
+
+
+def _c(a):
+    return np.ascontiguousarray(a, dtype=float)
 
 
 def scatter(node_index, values, n_nodes):
@@ -13,30 +20,38 @@ def scatter(node_index, values, n_nodes):
     node_index (n, nn) ghosted-local node index of each pair;
     values (n, nn) or (n, nn, k); returns (n_nodes,) or (n_nodes, k).
     """
-    idx = node_index.ravel()
-    if values.ndim == 2:
-        return np.bincount(idx, weights=values.ravel(), minlength=n_nodes)
-    k = values.shape[2]
-    flat = values.reshape(-1, k)
-    out = np.empty((n_nodes, k))
-    for c in range(k):  # loop over vector components only
-        out[:, c] = np.bincount(idx, weights=flat[:, c], minlength=n_nodes)
-    return out
+    pairs = _c(values)
+    scalar = pairs.ndim == 2
+    if scalar:
+        pairs = pairs[:, :, None]
+    out = np.empty((n_nodes, pairs.shape[2]))
+    kernels.scatter_pairs(np.ascontiguousarray(node_index), pairs, out)
+    return out[:, 0] if scalar else out
 
 
 def particle_to_grid(node_index, S, particle_values, n_nodes):
     """MPM intro eq. 2-4: sum_p S_ip q_p for per-particle ``particle_values``
     (n,) or (n, k)."""
-    if particle_values.ndim == 1:
-        return scatter(node_index, S * particle_values[:, None], n_nodes)
-    return scatter(node_index, S[:, :, None] * particle_values[:, None, :], n_nodes)
+    values = _c(particle_values)
+    scalar = values.ndim == 1
+    if scalar:
+        values = values[:, None]
+    out = np.empty((n_nodes, values.shape[1]))
+    kernels.scatter(np.ascontiguousarray(node_index), _c(S), values, n_nodes, out)
+    return out[:, 0] if scalar else out
 
 
 def grid_to_particle(node_index, S, nodal_values):
     """sum_i S_ip q_i for nodal values (n_nodes, k) -> (n, k)."""
-    return np.matmul(S[:, None, :], nodal_values[node_index])[:, 0, :]
+    nodal = _c(nodal_values)
+    out = np.empty((len(node_index), nodal.shape[1]))
+    kernels.gather(np.ascontiguousarray(node_index), _c(S), nodal, out)
+    return out
 
 
 def gradient_at_particles(node_index, G, nodal_values):
     """sum_i q_i (x) G_ip: (n, k, dim) gradient of a nodal field (MPM intro eq. 5)."""
-    return np.matmul(np.transpose(nodal_values[node_index], (0, 2, 1)), G)
+    nodal = _c(nodal_values)
+    out = np.empty((len(node_index), nodal.shape[1], G.shape[2]))
+    kernels.gradient(np.ascontiguousarray(node_index), _c(G), nodal, out)
+    return out

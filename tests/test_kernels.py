@@ -206,3 +206,37 @@ def test_a_particle_increment_that_inverts_is_counted():
     u[:, 0] = -3.0 * sim.grid.lower[0] - 3.0 * sim.grid.ghost_ijk[:, 0] * sim.grid.spacing[0]   # x -> -2x
     ev.evaluate(st, u, 2)
     assert ev.inverted == len(st.F_n)
+
+
+@pytest.mark.parametrize("shape_name", ["linear", "gimp", "bspline"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compiled_footprint_equals_the_numpy_shape_functions(shape_name, dim):
+    """Positions everywhere in the grid, the boundary layers included."""
+    from pimpm.grid import Grid
+    from pimpm.shape import make_shape
+    cells = [3, 4, 2][:dim]
+    grid = Grid(MPI.COMM_SELF, [0.0] * dim, [1.5, 2.0, 1.0][:dim], cells, stencil_width=2)
+    shape = make_shape(shape_name, dim)
+    x = RNG.uniform(0.0, 1.0, (500, dim)) * (grid.upper - grid.lower) + grid.lower
+    half = RNG.uniform(0.05, 0.5, (500, dim)) * grid.spacing
+    nodes, S, G = shape.evaluate(x, grid.lower, grid.spacing, grid.cells, half)
+    node_index, S_k, G_k = shape.footprint(x, grid, half)
+    assert np.array_equal(node_index, grid.local_node_index(nodes))
+    assert relative(S_k, S) < 1e-14 and relative(G_k, G) < 1e-14
+
+
+def test_compiled_transfers_equal_numpy_sums():
+    from pimpm.transfer import grid_to_particle, gradient_at_particles, particle_to_grid, scatter
+    n, nn, n_nodes, dim = 300, 9, 40, 2
+    node_index = RNG.integers(0, n_nodes, (n, nn))
+    S, G = RNG.random((n, nn)), RNG.standard_normal((n, nn, dim))
+    q, nodal = RNG.standard_normal((n, 3)), RNG.standard_normal((n_nodes, 3))
+    expected = np.zeros((n_nodes, 3))
+    np.add.at(expected, node_index.ravel(), (S[:, :, None] * q[:, None, :]).reshape(-1, 3))
+    assert relative(particle_to_grid(node_index, S, q, n_nodes), expected) < 1e-13
+    assert relative(particle_to_grid(node_index, S, q[:, 0], n_nodes), expected[:, 0]) < 1e-13
+    assert relative(scatter(node_index, S[:, :, None] * q[:, None, :], n_nodes), expected) < 1e-13
+    assert relative(grid_to_particle(node_index, S, nodal),
+                    np.einsum("pk,pkc->pc", S, nodal[node_index])) < 1e-13
+    assert relative(gradient_at_particles(node_index, G, nodal),
+                    np.einsum("pka,pkb->pab", nodal[node_index], G)) < 1e-13

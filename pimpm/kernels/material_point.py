@@ -86,17 +86,33 @@ def neo_hookean(F, mu, kappa, sigma, c, want_c, w):
             dev_tau[i, j] = mu * (b[i, j] - (trb / 3.0 if i == j else 0.0))
             sigma[i, j] = ((kappa * lnJ if i == j else 0.0) + dev_tau[i, j]) / J
     if want_c:
+        # J c = (kappa - 2/3 mu_bar) I(x)I + 2 (mu_bar - kappa ln J) I_s
+        #       - 2/3 (dev tau (x) I + I (x) dev tau),   mu_bar = mu tr(bbar)/3
         mu_bar = mu * trb / 3.0
+        inv_J = 1.0 / J
+        _isotropic_tangent(c, (kappa - 2.0 / 3.0 * mu_bar) * inv_J, 2.0 * (mu_bar - kappa * lnJ) * inv_J)
+        f = -2.0 / 3.0 * inv_J
         for i in range(3):
             for j in range(3):
+                t = f * dev_tau[i, j]
                 for k in range(3):
-                    for m in range(3):
-                        ii = _ii(i, j, k, m)
-                        s = _is(i, j, k, m)
-                        jc = (kappa * ii - 2.0 * kappa * lnJ * s + 2.0 * mu_bar * (s - ii / 3.0)
-                              - (2.0 / 3.0) * (dev_tau[i, j] * (1.0 if k == m else 0.0)
-                                               + (1.0 if i == j else 0.0) * dev_tau[k, m]))
-                        c[i, j, k, m] = jc / J
+                    c[i, j, k, k] += t
+                    c[k, k, i, j] += t
+
+
+@jit
+def _isotropic_tangent(c, a, b):
+    """c = a I(x)I + b I_s (I_s the symmetric fourth-order identity)."""
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                for m in range(3):
+                    c[i, j, k, m] = 0.0
+    for i in range(3):
+        for k in range(3):
+            c[i, i, k, k] += a
+            c[i, k, i, k] += 0.5 * b
+            c[i, k, k, i] += 0.5 * b
 
 
 @jit
@@ -114,12 +130,7 @@ def neo_hookean_compressible(F, lam, mu, sigma, c, want_c, w):
             d = 1.0 if i == j else 0.0
             sigma[i, j] = (0.5 * lam * (J * J - 1.0) * d + mu * (b[i, j] - d)) / J
     if want_c:
-        a = (2.0 * mu - lam * (J * J - 1.0)) / J
-        for i in range(3):
-            for j in range(3):
-                for k in range(3):
-                    for m in range(3):
-                        c[i, j, k, m] = lam * J * _ii(i, j, k, m) + a * _is(i, j, k, m)
+        _isotropic_tangent(c, lam * J, (2.0 * mu - lam * (J * J - 1.0)) / J)
 
 
 @jit

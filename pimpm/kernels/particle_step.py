@@ -19,7 +19,6 @@ import numpy as np
 
 from .jit import jit
 from .material_point import WORKSPACE, material_point, solve_thickness
-from .pattern import stencil_slot, value_offset
 from .small import det3, inv2, inv3, matmul3
 
 #: kinematics codes (pimpm.kinematics classes carry theirs)
@@ -114,58 +113,70 @@ def tangent_blocks(kinematics, axes, node_index, active, S, G, radius, volume_n,
                    node_ijk, width, indptr, slot_position, values):
     """Add every particle's stiffness blocks (G&W step 3, module docstring)
     into ``values`` (zeroed here): the row-oriented values of the block CSR
-    ``indptr``/``slot_position`` of :func:`pimpm.kernels.pattern.block_pattern`.
-    ``axes`` = tuple(range(dim)) (see :func:`evaluate_particles`)."""
+    ``indptr``/``slot_position`` of :func:`pimpm.kernels.pattern.block_pattern`
+    (``node_ijk``: each ghosted-local node's multi-index; ``width``: the
+    pattern's stencil half-width). ``axes`` = tuple(range(dim)) (see
+    :func:`evaluate_particles`)."""
     dim = len(axes)
     n, nn = S.shape
+    side = 2 * width + 1
     values[:] = 0.0
     Finv = np.zeros((3, 3))
     g = np.empty((nn, 3))
     a4 = np.empty((3, 3, 3, 3))
     B = np.empty((3, 3, 3))
+    entry = np.empty(nn, dtype=np.int64)            # the particle's active footprint entries
+    ijk = np.empty((nn, 3), dtype=np.int64)
     for p in range(n):
+        na = 0
+        for k in range(nn):
+            if active[p, k]:
+                entry[na] = k
+                for d in range(dim):
+                    ijk[na, d] = node_ijk[node_index[p, k], d]
+                na += 1
         Fi = F_inc[p]
         v = volume_n[p] * det3(Fi)              # current volume (full 3x3: plane-stress thickness)
         _in_plane_inverse(Fi, dim, Finv)
-        for k in range(nn):                     # g = F_inc^-T G: g_kd = G_kc Finv_cd
+        for q in range(na):                     # g = F_inc^-T G: g_kd = G_kc Finv_cd
+            k = entry[q]
             for d in range(dim):
                 s = 0.0
                 for cc in range(dim):
                     s += G[p, k, cc] * Finv[cc, d]
-                g[k, d] = s
-        for a in range(dim):                    # a_acbd = c_acbd + delta_ab sigma_cd
+                g[q, d] = s
+        for a in range(dim):                    # v (c_acbd + delta_ab sigma_cd)
             for cc in range(dim):
                 for b in range(dim):
                     for d in range(dim):
-                        a4[a, cc, b, d] = c[p, a, cc, b, d] + (sigma[p, cc, d] if a == b else 0.0)
-        r = radius[p] * Fi[2, 2] if kinematics == AXISYMMETRIC else 1.0
-        for k in range(nn):
-            if not active[p, k]:
-                continue
-            i = node_index[p, k]
-            for a in range(dim):                # B_abd = g_kc a_acbd
+                        a4[a, cc, b, d] = v * (c[p, a, cc, b, d] + (sigma[p, cc, d] if a == b else 0.0))
+        hoop = kinematics == AXISYMMETRIC
+        r = radius[p] * Fi[2, 2] if hoop else 1.0
+        for q in range(na):
+            i = node_index[p, entry[q]]
+            for a in range(dim):                # B_abd = g_qc a_acbd
                 for b in range(dim):
                     for d in range(dim):
                         s = 0.0
                         for cc in range(dim):
-                            s += g[k, cc] * a4[a, cc, b, d]
+                            s += g[q, cc] * a4[a, cc, b, d]
                         B[a, b, d] = s
-            for m in range(nn):
-                if not active[p, m]:
-                    continue
-                j = node_index[p, m]
-                pos = slot_position[i, stencil_slot(i, j, node_ijk, dim, width)]
-                base = value_offset(indptr, i, pos, dim)
-                stride = (indptr[i + 1] - indptr[i]) * dim       # from one component row to the next
+            row = dim * dim * indptr[i]
+            stride = (indptr[i + 1] - indptr[i]) * dim   # from one component row to the next
+            for m in range(na):
+                slot = 0
+                for d in range(dim - 1, -1, -1):
+                    slot = slot * side + ijk[m, d] - ijk[q, d] + width
+                base = row + (slot_position[i, slot] - indptr[i]) * dim
                 for a in range(dim):
                     for b in range(dim):
                         s = 0.0
                         for d in range(dim):
                             s += B[a, b, d] * g[m, d]
-                        values[base + a * stride + b] += v * s
-                if kinematics == AXISYMMETRIC:
-                    wk = S[p, k] / r
-                    wm = S[p, m] / r
+                        values[base + a * stride + b] += s
+                if hoop:
+                    wk = S[p, entry[q]] / r
+                    wm = S[p, entry[m]] / r
                     for b in range(dim):        # hoop row x in-plane column: w_k c_22bd g_md
                         s = 0.0
                         for d in range(dim):
@@ -174,6 +185,6 @@ def tangent_blocks(kinematics, axes, node_index, active, S, G, radius, volume_n,
                     for a in range(dim):        # in-plane row x hoop column: g_kc c_ac22 w_m
                         s = 0.0
                         for cc in range(dim):
-                            s += g[k, cc] * c[p, a, cc, 2, 2]
+                            s += g[q, cc] * c[p, a, cc, 2, 2]
                         values[base + a * stride] += v * s * wm
                     values[base] += v * wk * (c[p, 2, 2, 2, 2] + sigma[p, 2, 2]) * wm

@@ -96,7 +96,7 @@ def scalar_csr(indptr, indices, dim):
     """The scalar CSR (indptr over ghosted-local dofs, dof indices) of a
     block CSR whose values are stored row-oriented: block k of node row i,
     entry (a, b), is value dim^2 indptr[i] + a L_i dim + k dim + b with L_i
-    the row's number of blocks (:func:`value_offset`)."""
+    the row's number of blocks."""
     n_nodes = len(indptr) - 1
     sp = np.zeros(n_nodes * dim + 1, dtype=np.int64)
     si = np.empty(len(indices) * dim * dim, dtype=np.int64)
@@ -110,10 +110,3 @@ def scalar_csr(indptr, indices, dim):
                 for b in range(dim):
                     si[start + k * dim + b] = indices[indptr[i] + k] * dim + b
     return sp, si
-
-
-@jit
-def value_offset(indptr, i, pos, dim):
-    """Offset of entry (0, 0) of block ``pos`` (in node row i) in the
-    row-oriented values; entry (a, b) is at + a L_i dim + b."""
-    return dim * dim * indptr[i] + (pos - indptr[i]) * dim

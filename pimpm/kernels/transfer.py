@@ -1,0 +1,182 @@
+"""Particle <-> grid transfers, compiled: the shape functions at the
+particles (MPM introduction eq. 2-6) written straight in the ghosted-local
+node numbering, scatters of particle quantities to the nodes (eq. 2-4) and
+gathers of nodal quantities to the particles (eq. 8-10).
+
+A footprint lists ``nodes_per_axis ** dim`` nodes per particle, x fastest
+(the order of :class:`pimpm.shape.TensorProductShape`'s offsets); nodes
+outside the grid are clipped onto it with zero weight and gradient. The
+numpy versions in :mod:`pimpm.shape` are the references
+(tests/test_kernels.py).
+"""
+import math
+
+import numpy as np
+
+from .jit import jit
+
+LINEAR, GIMP, BSPLINE = 0, 1, 2
+
+
+@jit
+def _gimp_1d(r, l):
+    """uGIMP weight and slope per unit r (cell units), particle half-length
+    l <= 1/2 (as pimpm.shape._gimp_1d)."""
+    a = abs(r)
+    s = 1.0 if r > 0 else (-1.0 if r < 0 else 0.0)
+    if a < l:
+        return 1.0 - (r * r + l * l) / (2.0 * l), -r / l
+    if a < 1.0 - l:
+        return 1.0 - a, -s
+    if a < 1.0 + l:
+        q = 1.0 + l - a
+        return q * q / (4.0 * l), -s * q / (2.0 * l)
+    return 0.0, 0.0
+
+
+@jit
+def _bspline_1d(r):
+    a = abs(r)
+    if a < 0.5:
+        return 0.75 - r * r, -2.0 * r
+    if a < 1.5:
+        s = 1.0 if r > 0 else (-1.0 if r < 0 else 0.0)
+        return 0.5 * (1.5 - a) ** 2, -s * (1.5 - a)
+    return 0.0, 0.0
+
+
+@jit
+def footprint(kind, axes, x, lower, spacing, cells, half_size, ghost_start, ghost_shape,
+              node_index, S, G):
+    """Shape functions of ``kind`` (LINEAR, GIMP, BSPLINE) at positions x
+    (n, dim): ghosted-local node index (n, nn), weight S (n, nn) and
+    gradient G (n, nn, dim) in physical units. ``half_size`` (n, dim): GIMP's
+    particle half sizes (unused otherwise). ``axes`` = tuple(range(dim))."""
+    dim = len(axes)
+    n = x.shape[0]
+    npa = 2 if kind == LINEAR else 3
+    nn = npa ** dim
+    node = np.empty((3, 3), dtype=np.int64)       # per axis: the nodes touched
+    w = np.empty((3, 3))
+    dw = np.empty((3, 3))
+    stride = np.empty(3, dtype=np.int64)
+    stride[0] = 1
+    for d in range(1, dim):
+        stride[d] = stride[d - 1] * ghost_shape[d - 1]
+    for p in range(n):
+        for d in range(dim):
+            xi = (x[p, d] - lower[d]) / spacing[d]
+            if kind == LINEAR:
+                base = min(max(int(math.floor(xi)), 0), cells[d] - 1)
+                f = xi - base
+                node[d, 0], node[d, 1] = base, base + 1
+                w[d, 0], w[d, 1] = 1.0 - f, f
+                dw[d, 0], dw[d, 1] = -1.0, 1.0
+            else:
+                base = int(math.floor(xi + 0.5)) - 1
+                for k in range(3):
+                    node[d, k] = base + k
+                    if kind == GIMP:
+                        w[d, k], dw[d, k] = _gimp_1d(xi - (base + k), half_size[p, d] / spacing[d])
+                        if base + k < 0 or base + k > cells[d]:
+                            w[d, k] = 0.0
+                            dw[d, k] = 0.0
+                    else:
+                        w[d, k], dw[d, k] = _bspline_1d(xi - (base + k))
+                if kind == BSPLINE:
+                    # boundary modification: fold the phantom node outside a face
+                    # onto the face node and its neighbour (pimpm.shape)
+                    if base < 0:
+                        w[d, 1] += 2.0 * w[d, 0]
+                        w[d, 2] -= w[d, 0]
+                        w[d, 0] = 0.0
+                        dw[d, 1] += 2.0 * dw[d, 0]
+                        dw[d, 2] -= dw[d, 0]
+                        dw[d, 0] = 0.0
+                    if base + 2 > cells[d]:
+                        w[d, 1] += 2.0 * w[d, 2]
+                        w[d, 0] -= w[d, 2]
+                        w[d, 2] = 0.0
+                        dw[d, 1] += 2.0 * dw[d, 2]
+                        dw[d, 0] -= dw[d, 2]
+                        dw[d, 2] = 0.0
+                for k in range(3):
+                    node[d, k] = min(max(node[d, k], 0), cells[d])
+            for k in range(npa):
+                dw[d, k] /= spacing[d]
+        for k in range(nn):
+            rest = k
+            index = 0
+            weight = 1.0
+            for d in range(dim):
+                o = rest % npa
+                rest //= npa
+                index += (node[d, o] - ghost_start[d]) * stride[d]
+                weight *= w[d, o]
+            node_index[p, k] = index
+            S[p, k] = weight
+            for d in range(dim):
+                rest = k
+                g = 1.0
+                for e in range(dim):
+                    o = rest % npa
+                    rest //= npa
+                    g *= dw[e, o] if e == d else w[e, o]
+                G[p, k, d] = g
+
+
+@jit
+def scatter(node_index, weights, values, n_nodes, out):
+    """out[i] = sum over pairs (p, k) with node i of weights[p, k] values[p]
+    (``values`` (n, m), ``out`` (n_nodes, m), zeroed here): MPM intro eq. 2-4."""
+    out[:] = 0.0
+    n, nn = node_index.shape
+    m = values.shape[1]
+    for p in range(n):
+        for k in range(nn):
+            wk = weights[p, k]
+            i = node_index[p, k]
+            for c in range(m):
+                out[i, c] += wk * values[p, c]
+
+
+@jit
+def scatter_pairs(node_index, pairs, out):
+    """out[i] = sum of the per-pair values ``pairs`` (n, nn, m) at node i."""
+    out[:] = 0.0
+    n, nn = node_index.shape
+    m = pairs.shape[2]
+    for p in range(n):
+        for k in range(nn):
+            i = node_index[p, k]
+            for c in range(m):
+                out[i, c] += pairs[p, k, c]
+
+
+@jit
+def gather(node_index, weights, nodal, out):
+    """out[p] = sum_k weights[p, k] nodal[node_index[p, k]] (``nodal``
+    (n_nodes, m), ``out`` (n, m)): MPM intro eq. 8-10."""
+    n, nn = node_index.shape
+    m = nodal.shape[1]
+    for p in range(n):
+        for c in range(m):
+            s = 0.0
+            for k in range(nn):
+                s += weights[p, k] * nodal[node_index[p, k], c]
+            out[p, c] = s
+
+
+@jit
+def gradient(node_index, G, nodal, out):
+    """out[p] = sum_k nodal[node_k] (x) G[p, k] (n, m, dim): MPM intro eq. 5."""
+    n, nn = node_index.shape
+    m = nodal.shape[1]
+    dim = G.shape[2]
+    for p in range(n):
+        for a in range(m):
+            for b in range(dim):
+                s = 0.0
+                for k in range(nn):
+                    s += nodal[node_index[p, k], a] * G[p, k, b]
+                out[p, a, b] = s
