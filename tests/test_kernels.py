@@ -17,6 +17,7 @@ from mpi4py import MPI  # noqa: E402
 from pimpm import assembly  # noqa: E402
 from pimpm import materials as M  # noqa: E402
 from pimpm.config import validate  # noqa: E402
+from pimpm.implicit.problem import ParticleEvaluation  # noqa: E402
 from pimpm.kernels import material_point as mp  # noqa: E402
 from pimpm.kernels import particle_step  # noqa: E402
 from pimpm.kinematics import PlaneStress  # noqa: E402
@@ -164,25 +165,35 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
         dense[np.ix_(dofs[p], dofs[p])] += blocks[p]
     # compiled
     sim.problem.begin(st)
-    ev = st.extra["evaluation"]
+    ev = ParticleEvaluation(st, grid.n_local_nodes, dim, full_tangent=True)
+    assert shape != "gimp" or np.any(~st.active)       # inactive entries are skipped
     ev.evaluate(st, u, dim)
     assert ev.inverted == 0
     assert relative(ev.F_inc, F_inc) < 1e-12 and relative(ev.F, F) < 1e-12
     assert relative(ev.sigma, sigma) < 1e-10
     assert relative(ev.force, force) < 1e-10
+    volume = st.volume_n * np.linalg.det(F_inc)
+    if kinematics == "plane_stress":       # the in-plane part is condensed
+        assert relative(ev.c[:, :2, :2, :2, :2], c[:, :2, :2, :2, :2]) < 1e-10
+    else:
+        assert relative(ev.c, c) < 1e-10
+    assert relative(ev.tangent, volume[:, None, None, None, None]
+                    * assembly.spatial_tangent(sigma, c, dim)) < 1e-10
     new = st.committed_history(ev.history)
     for name in st.materials.groups[0][0].history:
         assert relative(new[name], history[name]) < 1e-10, name
     pattern = st.pattern
     values = np.empty(len(pattern.scalar_indices))
-    particle_step.tangent_blocks(
-        st.kinematics.kernel_code, tuple(range(dim)), st.node_index, st.active, st.S, st.G,
-        st.radius if st.radius is not None else np.zeros(0), st.volume_n, ev.F_inc, ev.sigma, ev.c,
-        grid.ghost_ijk, pattern.width, pattern.indptr, pattern.slot_position, values)
-    compiled = np.zeros_like(dense)
-    rows = np.repeat(np.arange(len(pattern.scalar_indptr) - 1), np.diff(pattern.scalar_indptr))
-    np.add.at(compiled, (rows, pattern.scalar_indices), values)
-    assert relative(compiled, dense) < 1e-10
+    symmetric_options = (False, True) if st.materials.groups[0][0].symmetric_tangent else (False,)
+    for symmetric in symmetric_options:     # half the element matrix, mirrored, where it is symmetric
+        particle_step.tangent_blocks(
+            st.kinematics.kernel_code, tuple(range(dim)), symmetric, st.node_index, st.active, st.S,
+            st.G, st.radius if st.radius is not None else np.zeros(0), ev.F_inc, ev.tangent, ev.hoop,
+            grid.ghost_ijk, pattern.width, pattern.indptr, pattern.slot_position, values)
+        compiled = np.zeros_like(dense)
+        rows = np.repeat(np.arange(len(pattern.scalar_indptr) - 1), np.diff(pattern.scalar_indptr))
+        np.add.at(compiled, (rows, pattern.scalar_indices), values)
+        assert relative(compiled, dense) < 1e-10
     # the pattern holds every coupling and nothing but them (and the owned diagonals)
     coupled = np.zeros((grid.n_local_nodes,) * 2, dtype=bool)
     for p in range(n):

@@ -47,31 +47,37 @@ def constraint_scale(materials, grid, integrator, dt):
 
 class ParticleEvaluation:
     """What the compiled kernel computed at one iterate (ghosted-local
-    kinematic displacement ``u``): F_inc, F, Cauchy stress, spatial tangent,
-    packed history and the internal force on the ghosted-local nodes, and
-    how many particles the increment inverts on this rank. The tangent reuses
-    it when SNES asks for the Jacobian at the iterate whose residual it
-    has just evaluated (G&W steps 4-5 are done once per iterate)."""
+    kinematic displacement ``u``): F_inc, F, Cauchy stress, packed history,
+    the internal force on the ghosted-local nodes, what the tangent needs
+    (the in-plane stiffness density times the current volume, and the
+    axisymmetric hoop couplings), and how many particles the increment
+    inverts on this rank. The tangent reuses it when SNES asks for the
+    Jacobian at the iterate whose residual it has just evaluated (G&W steps
+    4-5 are done once per iterate). ``full_tangent``: also keep the full
+    spatial tangent c (the matrix-free product uses it)."""
 
-    def __init__(self, state, n_nodes, dim):
+    def __init__(self, state, n_nodes, dim, full_tangent=False):
         n = len(state.F_n)
         self.u = None
         self.F_inc = np.empty((n, 3, 3))
         self.F = np.empty((n, 3, 3))
         self.sigma = np.empty((n, 3, 3))
-        self.c = np.empty((n, 3, 3, 3, 3))
         self.history = np.empty_like(state.history_packed)
         self.force = np.empty((n_nodes, dim))
+        self.tangent = np.empty((n,) + (dim,) * 4)
+        axisymmetric = state.kinematics.kernel_code == particle_step.AXISYMMETRIC
+        self.hoop = np.empty((n if axisymmetric else 0, 2 * dim * dim + 1))
+        self.c = np.empty((n if full_tangent else 0, 3, 3, 3, 3))
         self.inverted = 0
 
     def evaluate(self, state, u_local, dim):
         """Fill everything for ``u_local`` (G&W step 5 and the internal force)."""
         st, mt = state, state.materials
         self.inverted = particle_step.evaluate_particles(
-            st.kinematics.kernel_code, tuple(range(dim)), u_local, st.node_index, st.S, st.G,
+            st.kinematics.kernel_code, tuple(range(dim)), u_local, st.node_index, st.active, st.S, st.G,
             st.radius if st.radius is not None else _NO_RADIUS, st.F_n, st.volume_n,
             mt.models, mt.params, mt.material_of, st.history_packed, True, True,
-            self.F_inc, self.F, self.sigma, self.c, self.history, self.force)
+            self.F_inc, self.F, self.sigma, self.history, self.force, self.tangent, self.hoop, self.c)
         self.u = u_local.copy()
 
     def matches(self, u_local):
@@ -98,6 +104,9 @@ class StepProblem:
                           "consistent tangent is not symmetric)" if nonsymmetric_materials else "")
         #: is the assembled tangent symmetric? (then a symmetric factorization applies)
         self.symmetric = not self.asymmetry
+        #: has every material's stiffness density major symmetry? (each particle's
+        #: element matrix is then symmetric: the kernel computes half of it)
+        self.symmetric_density = not nonsymmetric_materials
         self.residual_scale = float(residual_scale)
         self.stages = stages or {}
         self.state = None
@@ -107,6 +116,7 @@ class StepProblem:
         self.diag = grid.da.createGlobalVec()
         self.row_offset = self.diag.getOwnershipRange()[0]
         self.K = self.projection = None
+        self.matrix_free = False         # the shell's product needs the full spatial tangent
 
     def begin(self, state, step=0):
         """Start solving a step (``step``: its 1-based number)."""
@@ -114,8 +124,10 @@ class StepProblem:
         self.step = step
         self.inverted = False
         self.residual_evaluations = 0
-        if "evaluation" not in state.extra:
-            state.extra["evaluation"] = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim)
+        evaluation = state.extra.get("evaluation")
+        if evaluation is None or (self.matrix_free and len(evaluation.c) != len(state.F_n)):
+            state.extra["evaluation"] = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim,
+                                                           full_tangent=self.matrix_free)
 
     @property
     def assembles_on_pattern(self):
@@ -133,6 +145,7 @@ class StepProblem:
         pattern, fixed once here from the DMDA's full stencil."""
         da = self.grid.da
         if matrix_free:
+            self.matrix_free = True
             X = da.createGlobalVec()
             sizes = (X.getLocalSize(), X.getSize())
             X.destroy()
@@ -252,9 +265,10 @@ class StepProblem:
                 if values is None:
                     values = st.extra["tangent_values"] = np.empty(len(pattern.scalar_indices))
                 particle_step.tangent_blocks(
-                    st.kinematics.kernel_code, tuple(range(grid.dim)), st.node_index, st.active, st.S, st.G,
-                    st.radius if st.radius is not None else _NO_RADIUS, st.volume_n,
-                    evaluation.F_inc, evaluation.sigma, evaluation.c, grid.ghost_ijk,
+                    st.kinematics.kernel_code, tuple(range(grid.dim)), self.symmetric_density, st.node_index,
+                    st.active, st.S, st.G,
+                    st.radius if st.radius is not None else _NO_RADIUS, evaluation.F_inc,
+                    evaluation.tangent, evaluation.hoop, grid.ghost_ijk,
                     pattern.width, pattern.indptr, pattern.slot_position, values)
                 K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices, values,
                                     addv=PETSc.InsertMode.ADD_VALUES)

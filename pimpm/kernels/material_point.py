@@ -73,9 +73,10 @@ def neo_hookean(F, mu, kappa, sigma, c, want_c, w):
         _fill_nan(sigma, c, want_c)
         return
     lnJ = math.log(J)
+    inv_J = 1.0 / J
     b = w[0]
     matmul3_bt(F, F, b)
-    f = J ** (-2.0 / 3.0)
+    f = math.exp(-2.0 / 3.0 * lnJ)          # J^(-2/3)
     for i in range(3):
         for j in range(3):
             b[i, j] *= f
@@ -84,12 +85,11 @@ def neo_hookean(F, mu, kappa, sigma, c, want_c, w):
     for i in range(3):
         for j in range(3):
             dev_tau[i, j] = mu * (b[i, j] - (trb / 3.0 if i == j else 0.0))
-            sigma[i, j] = ((kappa * lnJ if i == j else 0.0) + dev_tau[i, j]) / J
+            sigma[i, j] = ((kappa * lnJ if i == j else 0.0) + dev_tau[i, j]) * inv_J
     if want_c:
         # J c = (kappa - 2/3 mu_bar) I(x)I + 2 (mu_bar - kappa ln J) I_s
         #       - 2/3 (dev tau (x) I + I (x) dev tau),   mu_bar = mu tr(bbar)/3
         mu_bar = mu * trb / 3.0
-        inv_J = 1.0 / J
         _isotropic_tangent(c, (kappa - 2.0 / 3.0 * mu_bar) * inv_J, 2.0 * (mu_bar - kappa * lnJ) * inv_J)
         f = -2.0 / 3.0 * inv_J
         for i in range(3):

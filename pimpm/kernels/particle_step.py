@@ -35,21 +35,29 @@ def _in_plane_inverse(F, dim, out):
 
 
 @jit
-def evaluate_particles(kinematics, axes, u, node_index, S, G, radius, F_n, volume_n,
-                       models, params, material_of, h_in, want_c, want_force,
-                       F_inc, F, sigma, c, h_out, force):
+def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_n, volume_n,
+                       models, params, material_of, h_in, want_tangent, want_force,
+                       F_inc, F, sigma, h_out, force, tangent, hoop, c):
     """Kinematics, material points and (``want_force``) the internal force
-    for the ghosted-local nodal displacement ``u`` (n_nodes, dim). Writes
-    F_inc, F, sigma, c (if ``want_c``), h_out and force (n_nodes, dim,
-    zeroed here). Returns the number of particles whose increment inverts
-    them (det F_inc <= 0, full 3x3). ``axes`` = tuple(range(dim)): a tuple's
-    length is known when compiling, so each dimension gets loops of fixed
-    length."""
+    for the ghosted-local nodal displacement ``u`` (n_nodes, dim); footprint
+    entries that are not ``active`` (no weight, no gradient) are skipped.
+
+    Writes F_inc, F, sigma, h_out, force (n_nodes, dim; zeroed here) and, if
+    ``want_tangent``, what the tangent needs per particle: ``tangent`` (n,
+    dim, dim, dim, dim) = v (c_acbd + delta_ab sigma_cd), the material +
+    geometric stiffness density times the current volume v, in the plane;
+    ``hoop`` (n, 2 dim^2 + 1) in axisymmetry: v c_22bd, v c_ac22 and
+    v (c_2222 + sigma_22) (:func:`_hoop_terms`); ``c`` (n, 3, 3, 3, 3), the full spatial tangent,
+    only if it has rows (the matrix-free product wants it). Returns the
+    number of particles whose increment inverts them (det F_inc <= 0, full
+    3x3). ``axes`` = tuple(range(dim)): a tuple's length is known when
+    compiling, so each dimension gets loops of fixed length."""
     dim = len(axes)
     n, nn = S.shape
     w = np.empty((WORKSPACE, 3, 3))
     D = np.empty((3, 3, 3, 3))
     c_scratch = np.empty((3, 3, 3, 3))
+    keep_c = c.shape[0] > 0
     grad = np.empty((3, 3))
     Finv = np.zeros((3, 3))
     P = np.empty((3, 3))
@@ -60,6 +68,8 @@ def evaluate_particles(kinematics, axes, u, node_index, S, G, radius, F_n, volum
         Fi = F_inc[p]
         grad[:] = 0.0
         for k in range(nn):
+            if not active[p, k]:
+                continue
             node = node_index[p, k]
             for a in range(dim):
                 for b in range(dim):
@@ -76,25 +86,38 @@ def evaluate_particles(kinematics, axes, u, node_index, S, G, radius, F_n, volum
             inverted += 1
         matmul3(Fi, F_n[p], F[p])
         m = material_of[p]
-        cp = c[p] if want_c else c_scratch
+        cp = c[p] if keep_c else c_scratch
+        sp = sigma[p]
         if kinematics == PLANE_STRESS:
-            solve_thickness(models[m], params[m], F[p], Fi, h_in[p], h_out[p], sigma[p], cp,
-                            want_c, w, D)
+            solve_thickness(models[m], params[m], F[p], Fi, h_in[p], h_out[p], sp, cp,
+                            want_tangent, w, D)
         else:
-            material_point(models[m], params[m], F[p], h_in[p], h_out[p], sigma[p], cp,
-                           want_c, w, D)
+            material_point(models[m], params[m], F[p], h_in[p], h_out[p], sp, cp,
+                           want_tangent, w, D)
+        J_inc = det3(Fi)                 # full 3x3: thickness (plane stress), hoop (axisymmetric)
+        if want_tangent:
+            v = volume_n[p] * J_inc      # current volume
+            tp = tangent[p]
+            for a in range(dim):
+                for cc in range(dim):
+                    for b in range(dim):
+                        for d in range(dim):
+                            tp[a, cc, b, d] = v * (cp[a, cc, b, d] + (sp[cc, d] if a == b else 0.0))
+            if kinematics == AXISYMMETRIC:
+                _hoop_terms(cp, sp, v, dim, hoop[p])
         if not want_force:
             continue
-        J_inc = det3(Fi)
         _in_plane_inverse(Fi, dim, Finv)
         for a in range(dim):                         # P = J_inc sigma F_inc^-T (in-plane)
             for b in range(dim):
                 s = 0.0
                 for cc in range(dim):
-                    s += sigma[p, a, cc] * Finv[b, cc]
+                    s += sp[a, cc] * Finv[b, cc]
                 P[a, b] = J_inc * s
         V = volume_n[p]
         for k in range(nn):
+            if not active[p, k]:
+                continue
             node = node_index[p, k]
             for a in range(dim):
                 s = 0.0
@@ -102,31 +125,46 @@ def evaluate_particles(kinematics, axes, u, node_index, S, G, radius, F_n, volum
                     s += G[p, k, b] * P[a, b]
                 force[node, a] += V * s
         if kinematics == AXISYMMETRIC:              # hoop force V P_thth S_ip / r
-            hoop = V * (J_inc * sigma[p, 2, 2] / Fi[2, 2]) / radius[p]
+            h = V * (J_inc * sp[2, 2] / Fi[2, 2]) / radius[p]
             for k in range(nn):
-                force[node_index[p, k], 0] += hoop * S[p, k]
+                force[node_index[p, k], 0] += h * S[p, k]
     return inverted
 
 
 @jit
-def tangent_blocks(kinematics, axes, node_index, active, S, G, radius, volume_n, F_inc, sigma, c,
-                   node_ijk, width, indptr, slot_position, values):
+def _hoop_terms(c, sigma, v, dim, out):
+    """The axisymmetric tangent's hoop couplings times the current volume:
+    out[2 b + d] = v c_22bd, out[2 dim + 2 a + cc] = v c_ac22 (in-plane
+    indices, flattened), and the last entry v (c_2222 + sigma_22)."""
+    for b in range(dim):
+        for d in range(dim):
+            out[dim * b + d] = v * c[2, 2, b, d]
+            out[dim * dim + dim * b + d] = v * c[b, d, 2, 2]
+    out[2 * dim * dim] = v * (c[2, 2, 2, 2] + sigma[2, 2])
+
+
+@jit
+def tangent_blocks(kinematics, axes, symmetric, node_index, active, S, G, radius, F_inc, tangent,
+                   hoop, node_ijk, width, indptr, slot_position, values):
     """Add every particle's stiffness blocks (G&W step 3, module docstring)
     into ``values`` (zeroed here): the row-oriented values of the block CSR
     ``indptr``/``slot_position`` of :func:`pimpm.kernels.pattern.block_pattern`
     (``node_ijk``: each ghosted-local node's multi-index; ``width``: the
-    pattern's stencil half-width). ``axes`` = tuple(range(dim)) (see
-    :func:`evaluate_particles`)."""
+    pattern's stencil half-width). ``tangent`` and ``hoop`` come from
+    :func:`evaluate_particles`. ``axes`` = tuple(range(dim)). ``symmetric``:
+    the stiffness density has major symmetry (hyperelastic materials), so
+    each particle's element matrix is symmetric and only the blocks on and
+    above its diagonal are computed, the others added as their transposes."""
     dim = len(axes)
     n, nn = S.shape
     side = 2 * width + 1
     values[:] = 0.0
     Finv = np.zeros((3, 3))
     g = np.empty((nn, 3))
-    a4 = np.empty((3, 3, 3, 3))
     B = np.empty((3, 3, 3))
     entry = np.empty(nn, dtype=np.int64)            # the particle's active footprint entries
     ijk = np.empty((nn, 3), dtype=np.int64)
+    axisymmetric = kinematics == AXISYMMETRIC
     for p in range(n):
         na = 0
         for k in range(nn):
@@ -136,7 +174,6 @@ def tangent_blocks(kinematics, axes, node_index, active, S, G, radius, volume_n,
                     ijk[na, d] = node_ijk[node_index[p, k], d]
                 na += 1
         Fi = F_inc[p]
-        v = volume_n[p] * det3(Fi)              # current volume (full 3x3: plane-stress thickness)
         _in_plane_inverse(Fi, dim, Finv)
         for q in range(na):                     # g = F_inc^-T G: g_kd = G_kc Finv_cd
             k = entry[q]
@@ -145,46 +182,58 @@ def tangent_blocks(kinematics, axes, node_index, active, S, G, radius, volume_n,
                 for cc in range(dim):
                     s += G[p, k, cc] * Finv[cc, d]
                 g[q, d] = s
-        for a in range(dim):                    # v (c_acbd + delta_ab sigma_cd)
-            for cc in range(dim):
-                for b in range(dim):
-                    for d in range(dim):
-                        a4[a, cc, b, d] = v * (c[p, a, cc, b, d] + (sigma[p, cc, d] if a == b else 0.0))
-        hoop = kinematics == AXISYMMETRIC
-        r = radius[p] * Fi[2, 2] if hoop else 1.0
+        tp = tangent[p]
+        r = radius[p] * Fi[2, 2] if axisymmetric else 1.0
         for q in range(na):
             i = node_index[p, entry[q]]
-            for a in range(dim):                # B_abd = g_qc a_acbd
+            for a in range(dim):                # B_abd = g_qc v a_acbd
                 for b in range(dim):
                     for d in range(dim):
                         s = 0.0
                         for cc in range(dim):
-                            s += g[q, cc] * a4[a, cc, b, d]
+                            s += g[q, cc] * tp[a, cc, b, d]
                         B[a, b, d] = s
             row = dim * dim * indptr[i]
             stride = (indptr[i + 1] - indptr[i]) * dim   # from one component row to the next
-            for m in range(na):
+            for m in range(q if symmetric else 0, na):
                 slot = 0
                 for d in range(dim - 1, -1, -1):
                     slot = slot * side + ijk[m, d] - ijk[q, d] + width
                 base = row + (slot_position[i, slot] - indptr[i]) * dim
+                mirror = symmetric and m != q
+                if mirror:                      # block (m, q) = block (q, m)^T
+                    j = node_index[p, entry[m]]
+                    slot = 0
+                    for d in range(dim - 1, -1, -1):
+                        slot = slot * side + ijk[q, d] - ijk[m, d] + width
+                    base_t = dim * dim * indptr[j] + (slot_position[j, slot] - indptr[j]) * dim
+                    stride_t = (indptr[j + 1] - indptr[j]) * dim
                 for a in range(dim):
                     for b in range(dim):
                         s = 0.0
                         for d in range(dim):
                             s += B[a, b, d] * g[m, d]
                         values[base + a * stride + b] += s
-                if hoop:
+                        if mirror:
+                            values[base_t + b * stride_t + a] += s
+                if axisymmetric:
+                    hp = hoop[p]
                     wk = S[p, entry[q]] / r
                     wm = S[p, entry[m]] / r
-                    for b in range(dim):        # hoop row x in-plane column: w_k c_22bd g_md
+                    for b in range(dim):        # hoop row x in-plane column: w_k v c_22bd g_md
                         s = 0.0
                         for d in range(dim):
-                            s += c[p, 2, 2, b, d] * g[m, d]
-                        values[base + b] += v * wk * s
-                    for a in range(dim):        # in-plane row x hoop column: g_kc c_ac22 w_m
+                            s += hp[dim * b + d] * g[m, d]
+                        values[base + b] += wk * s
+                        if mirror:
+                            values[base_t + b * stride_t] += wk * s
+                    for a in range(dim):        # in-plane row x hoop column: g_kc v c_ac22 w_m
                         s = 0.0
                         for cc in range(dim):
-                            s += g[q, cc] * c[p, a, cc, 2, 2]
-                        values[base + a * stride] += v * s * wm
-                    values[base] += v * wk * (c[p, 2, 2, 2, 2] + sigma[p, 2, 2]) * wm
+                            s += g[q, cc] * hp[dim * dim + dim * a + cc]
+                        values[base + a * stride] += s * wm
+                        if mirror:
+                            values[base_t + a] += s * wm
+                    values[base] += wk * hp[2 * dim * dim] * wm
+                    if mirror:
+                        values[base_t] += wk * hp[2 * dim * dim] * wm
