@@ -7,12 +7,20 @@ choice can be refined or overridden from the command line.
 """
 from petsc4py import PETSc
 
-#: GAMG settings measured by scripts/bench_solvers.py (docs/PERFORMANCE.md): a
-#: drop threshold of 0.02 and 3 smoothing steps per level keep the iteration
-#: count flat under refinement (defaults: 1.7x growth from 7e3 to 1e5 unknowns).
-GAMG = {"pc_type": "gamg", "pc_gamg_threshold": "0.02", "mg_levels_ksp_max_it": "3"}
+#: GAMG settings, measured on whole runs of the 50% billet (docs/PERFORMANCE.md,
+#: scripts/bench_presets.py): plain (unsmoothed) aggregation keeps GMRES at
+#: ~37 iterations per Newton step to the end with no direct fallback, where
+#: smoothed aggregation (PETSc's default, nsmooths 1) climbs to 150 per step
+#: and falls back to MUMPS in 37 of 166 Newton steps as the billet is crushed;
+#: a drop threshold of 0.02 and 3 smoothing steps per level.
+GAMG = {"pc_type": "gamg", "pc_gamg_agg_nsmooths": "0", "pc_gamg_threshold": "0.02",
+        "mg_levels_ksp_max_it": "3"}
 
-#: name -> (PETSc options, iterative?, symmetric positive definite?, matrix-free?)
+#: name -> (PETSc options, iterative?, needs a symmetric tangent?, matrix-free?). No preset
+#: marks the tangent SPD: it is symmetric for hyperelastic materials in the
+#: velocity formulation, but the geometric stiffness of a body under
+#: compression can make it indefinite (CG reports DIVERGED_INDEFINITE_MAT at
+#: 50% on the billet), and MUMPS's SPD factorization (SYM=1) would not do then.
 PRESETS = {
     "mumps": ({"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"},
               False, False, False),

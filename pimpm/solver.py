@@ -122,8 +122,8 @@ class NewtonSolver:
         self.preset = db.getString("pimpm_preset", solver_config["preset"])
         if self.preset not in PRESETS:
             raise ValueError(f"-pimpm_preset {self.preset}: expected one of {', '.join(PRESETS)}")
-        preset_options, iterative, spd, self.matrix_free = PRESETS[self.preset]
-        if spd and not problem.symmetric:
+        preset_options, iterative, needs_symmetry, self.matrix_free = PRESETS[self.preset]
+        if needs_symmetry and not problem.symmetric:
             where = "-pimpm_preset" if db.hasName("pimpm_preset") else "solver.preset"
             raise ValueError(f"{where} = {self.preset!r}: expected a preset for non-symmetric "
                              f"tangents (gmres-gamg, mumps, jfnk or matrix-free) with {problem.asymmetry}")
@@ -154,7 +154,6 @@ class NewtonSolver:
         self.X = self.da.createGlobalVec()
         self.R = self.da.createGlobalVec()
         self.symmetric = problem.symmetric and not self.matrix_free
-        self.spd = spd and not self.matrix_free
         self.near_null_space = iterative and not self.matrix_free
         #: the pattern of the current tangent matrix (None: not made on a pattern)
         self.pattern = None
@@ -192,8 +191,6 @@ class NewtonSolver:
         if self.symmetric:
             J.setOption(PETSc.Mat.Option.SYMMETRIC, True)
             J.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
-        if self.spd:
-            J.setOption(PETSc.Mat.Option.SPD, True)
         if self.near_null_space:
             J.setNearNullSpace(rigid_body_near_null_space(self.grid))
 

@@ -331,15 +331,14 @@ def material_point(model, prm, F, h_in, h_out, sigma, c, want_c, w, D):
     ``want_c``) and history ``h_out`` after the deformation gradient ``F``
     for the model ``model`` with packed parameters ``prm`` and history
     ``h_in`` committed at t. ``w``: (WORKSPACE, 3, 3) scratch; ``D``: (3, 3,
-    3, 3) scratch."""
+    3, 3) scratch. (Callers pass flags as values, not constants: numba would
+    compile every model again for each constant.)"""
     if model == NEO_HOOKEAN:
         neo_hookean(F, prm[0], prm[1], sigma, c, want_c, w)
     elif model == NEO_HOOKEAN_COMPRESSIBLE:
         neo_hookean_compressible(F, prm[1] - 2.0 / 3.0 * prm[0], prm[0], sigma, c, want_c, w)
-    elif model == LINEAR_ELASTIC:
-        j2_small_strain(F, prm, h_in, h_out, False, sigma, c, want_c, w, D)
-    elif model == J2_SMALL_STRAIN:
-        j2_small_strain(F, prm, h_in, h_out, True, sigma, c, want_c, w, D)
+    elif model == LINEAR_ELASTIC or model == J2_SMALL_STRAIN:
+        j2_small_strain(F, prm, h_in, h_out, model == J2_SMALL_STRAIN, sigma, c, want_c, w, D)
     else:
         j2_finite_strain(F, prm, h_in, h_out, sigma, c, want_c, w)
 
@@ -369,8 +368,11 @@ def solve_thickness(model, prm, F, F_inc, h_in, h_out, sigma, c, want_c, w, D):
     d ln F33 = c3333 + sigma33), F and F_inc updated in place; the in-plane
     tangent is condensed, c_abcd - c_ab33 c_33cd / c_3333 (as
     :class:`pimpm.kinematics.PlaneStress`)."""
+    # every iteration needs c_3333; a flag that is not a constant, so that numba
+    # does not compile material_point (every model) once more for a literal True
+    need_c = want_c or not want_c
     for _ in range(50):
-        material_point(model, prm, F, h_in, h_out, sigma, c, True, w, D)
+        material_point(model, prm, F, h_in, h_out, sigma, c, need_c, w, D)
         s33 = sigma[2, 2]
         big = 0.0
         for i in range(3):

@@ -1,0 +1,44 @@
+"""``python -m pimpm.kernels``: compile every kernel once (2D and 3D), so that
+the first run after installing does not wait for numba; scripts/setup.sh runs
+it. Compiled code is cached on disk (:mod:`pimpm.kernels.jit`)."""
+import sys
+import time
+
+import petsc4py
+
+petsc4py.init(sys.argv[:1])
+from mpi4py import MPI  # noqa: E402
+
+from ..config import validate  # noqa: E402
+from ..simulation import Simulation  # noqa: E402
+from .jit import CACHE_DIRECTORY  # noqa: E402
+
+
+def tiny(dim):
+    """A small block pressed by a platen: one step uses every implicit kernel."""
+    upper, cells = ([2.0, 2.0], [4, 4]) if dim == 2 else ([2.0, 2.0, 2.0], [2, 2, 3])
+    body_upper = [1.0] * (dim - 1) + [1.0]
+    return {"grid": {"lower": [0.0] * dim, "upper": upper, "cells": cells},
+            "materials": {"m": {"model": "neo_hookean", "shear_modulus": 1.0, "bulk_modulus": 3.0,
+                                "density": 1.0}},
+            "bodies": [{"name": "block", "material": "m", "particles_per_cell": 2,
+                        "geometry": {"type": "box", "lower": [0.0] * dim, "upper": body_upper}},
+                       {"name": "platen", "rigid": True, "particles_per_cell": 2,
+                        "velocity": [0.0] * (dim - 1) + [-0.01],
+                        "geometry": {"type": "box", "lower": [0.0] * (dim - 1) + [1.0],
+                                     "upper": [1.5] * (dim - 1) + [1.5]}}],
+            "time": {"integrator": "quasi_static", "dt": 1.0, "end_time": 1.0}}
+
+
+def main():
+    start = time.perf_counter()
+    for dim in (2, 3):
+        sim = Simulation(validate(tiny(dim)), MPI.COMM_SELF)
+        sim.advance(1.0)
+        sim.solver.destroy()
+    print(f"pimpm: kernels compiled in {time.perf_counter() - start:.1f} s "
+          f"(cache: {CACHE_DIRECTORY})")
+
+
+if __name__ == "__main__":
+    main()
