@@ -19,6 +19,7 @@ from .implicit import StepProblem, StepState, TangentPattern, constraint_scale, 
 from .integrators import make_integrator
 from .integrators.explicit import stable_time_step
 from .kernels import pattern as kernel_pattern
+from .kernels import transfer as transfer_kernels
 from .kinematics import make_kinematics
 from .materials import make_material
 from .materials import tensors
@@ -170,14 +171,18 @@ class Simulation:
 
     def nodal_state(self, node_index, S):
         """G&W step 1 (eq. 2-4): lumped mass, v_g(t), a_g(t) and Fext_g on
-        owned dofs."""
+        owned dofs (one scatter of m, m v and m a; gravity is uniform, so
+        Fext_g = m_g g)."""
         p, grid = self.particles, self.grid
-        nloc = grid.n_local_nodes
+        dim = self.dim
         m = p["mass"]
-        mass = grid.sum_scalar_to_owned(particle_to_grid(node_index, S, m, nloc))
-        momentum = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * p["v"], nloc))
-        mass_acc = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * p["a"], nloc))
-        fext = grid.sum_to_owned(particle_to_grid(node_index, S, m[:, None] * self.gravity, nloc))
+        moments = particle_to_grid(node_index, S, np.column_stack([m, m[:, None] * p["v"],
+                                                                   m[:, None] * p["a"]]),
+                                   grid.n_local_nodes)
+        mass = grid.sum_scalar_to_owned(moments[:, 0])
+        momentum = grid.sum_to_owned(moments[:, 1:1 + dim])
+        mass_acc = grid.sum_to_owned(moments[:, 1 + dim:])
+        fext = mass * np.tile(self.gravity, len(mass) // dim)
         has_mass = mass > self.mass_floor
         safe = np.where(has_mass, mass, 1.0)
         velocity = np.where(has_mass, momentum / safe, 0.0)
@@ -191,8 +196,9 @@ class Simulation:
         node_index, S, G = self.footprint()
         mass, velocity, acceleration, fext = self.nodal_state(node_index, S)
         # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
-        stiffness_weight = grid.sum_scalar_to_owned(particle_to_grid(
-            node_index, np.sum((G * grid.spacing) ** 2, axis=2), p["mass"], grid.n_local_nodes))
+        weight = np.empty(grid.n_local_nodes)
+        transfer_kernels.gradient_weight(node_index, G, grid.spacing, p["mass"], weight)
+        stiffness_weight = grid.sum_scalar_to_owned(weight)
         cons = bc.build_constraints(grid, self.shape, self.rigid, self.rigid_bodies,
                                     self.boundary, mass, dt, self.mass_floor, stiffness_weight)
         groups = self.material_groups()

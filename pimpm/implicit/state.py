@@ -92,7 +92,8 @@ class TangentPattern:
     scalar_indptr: np.ndarray
     scalar_indices: np.ndarray
 
-    def same_as(self, other):
-        return (other is not None and self.width == other.width
-                and np.array_equal(self.indptr, other.indptr)
-                and np.array_equal(self.indices, other.indices))
+    def within(self, other):
+        """Are all of this pattern's couplings on this rank among ``other``'s
+        (the same grid)?"""
+        return (self.width == other.width and self.slot_position.shape == other.slot_position.shape
+                and bool(np.all(other.slot_position[self.slot_position >= 0] >= 0)))

@@ -62,6 +62,14 @@ def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes
     mark = np.zeros((n_nodes, slots), dtype=np.bool_)
     n, nn = node_index.shape
     for p in range(n):
+        if p > 0:                       # particles sorted by cell: neighbours often share a footprint
+            same = True
+            for k in range(nn):
+                if node_index[p, k] != node_index[p - 1, k] or active[p, k] != active[p - 1, k]:
+                    same = False
+                    break
+            if same:
+                continue
         for k in range(nn):
             if not active[p, k]:
                 continue

@@ -180,3 +180,19 @@ def gradient(node_index, G, nodal, out):
                 for k in range(nn):
                     s += nodal[node_index[p, k], a] * G[p, k, b]
                 out[p, a, b] = s
+
+
+@jit
+def gradient_weight(node_index, G, spacing, mass, out):
+    """out[i] = sum_p m_p |h G_ip|^2 (zeroed here): a node no particle's
+    gradient reaches has none (it has no stiffness either)."""
+    out[:] = 0.0
+    n, nn = node_index.shape
+    dim = G.shape[2]
+    for p in range(n):
+        for k in range(nn):
+            s = 0.0
+            for d in range(dim):
+                hg = spacing[d] * G[p, k, d]
+                s += hg * hg
+            out[node_index[p, k]] += mass[p] * s
