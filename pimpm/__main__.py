@@ -1,17 +1,22 @@
-"""Command line: ``python -m pimpm INPUT.yaml [--check] [--overwrite] [PETSc options]``."""
+"""Command line: ``python -m pimpm INPUT.yaml [--check] [--overwrite] [--restart] [PETSc options]``."""
 import argparse
+import os
 import sys
 import traceback
 
 HELP = """\
 pimpm: parallel implicit Material Point Method (Guilkey & Weiss 2003) on PETSc.
 
-usage: [mpiexec -n N] python -m pimpm INPUT.yaml [--check] [--overwrite] [PETSc options]
+usage: [mpiexec -n N] python -m pimpm INPUT.yaml [--check] [--overwrite] [--restart] [PETSc options]
 
   INPUT.yaml     problem description (schema: docs/INPUT.md)
   --check        validate the input, print a summary (cells, particles per body,
                  ranks, dt, steps) and exit without running
   --overwrite    replace results already in the output directory
+  --restart      continue from OUTDIR/checkpoint.h5 (written every
+                 output.checkpoint_every steps, and when a run stops on a
+                 failure, SIGTERM or SIGINT); end_time, solver and output
+                 settings may change, the grid, materials and bodies may not
   --help         this text
 
 Any other option goes to PETSc and overrides the YAML `solver.petsc` block and
@@ -20,9 +25,12 @@ pimpm's defaults (Newton with backtracking line search, MUMPS LU), e.g.
   -options_file FILE   -help (PETSc's own option list)
 
 Output: OUTDIR/results.h5, particles.xdmf and grid.xdmf (open in ParaView),
-history.csv (one row per step). Exit status: 0 done, 1 numerical failure
-(results up to the last good step are kept) or an unexpected error (on any
-rank: every rank stops), 2 bad input or usage.
+history.csv (one row per step), checkpoint.h5. Exit status: 0 done,
+1 numerical failure (results up to the last good step are kept, and a
+checkpoint of it) or an unexpected error (on any rank: every rank stops),
+2 bad input or usage, 143 / 130 stopped by SIGTERM / SIGINT (the step in
+progress is abandoned; results and a checkpoint of the last good step are
+kept; a second signal stops at once).
 """
 
 
@@ -45,11 +53,23 @@ def split_arguments(argv):
     return ours, petsc
 
 
+def options_file_problem(petsc_args):
+    """The message for an -options_file that is not a readable regular file, or None."""
+    for option, value in zip(petsc_args, petsc_args[1:] + [None]):
+        if option in ("-options_file", "-options_file_yaml"):
+            if value is None or value.startswith("-"):
+                return f"{option}: expected a file name after it"
+            if not os.path.isfile(value) or not os.access(value, os.R_OK):
+                return f"{option} {value}: expected a readable file of PETSc options"
+    return None
+
+
 def parse(argv):
     parser = argparse.ArgumentParser(prog="pimpm", add_help=False, allow_abbrev=False)
     parser.add_argument("input", nargs="?")
     parser.add_argument("--check", action="store_true")
     parser.add_argument("--overwrite", action="store_true")
+    parser.add_argument("--restart", action="store_true")
     parser.add_argument("--help", action="store_true")
     ours, petsc = split_arguments(argv)
     args, unknown = parser.parse_known_args(ours)
@@ -63,15 +83,22 @@ def main(argv=None):
         print(HELP, end="")
         return 0
 
-    import petsc4py
-    petsc4py.init([sys.argv[0]] + petsc_args)
     from mpi4py import MPI
+
+    from . import interrupt
+    interrupt.install()                  # SIGTERM/SIGINT: stop at the next step boundary or residual
     comm = MPI.COMM_WORLD
 
     def fail(message, status=2):
         if comm.rank == 0:
             print(f"pimpm: error: {message}", file=sys.stderr, flush=True)
         return status
+
+    problem = options_file_problem(petsc_args)
+    if problem:                          # PETSc would print an error block and a traceback
+        return fail(problem)
+    import petsc4py
+    petsc4py.init([sys.argv[0]] + petsc_args)
 
     if unknown:
         return fail(f"unknown argument(s) {' '.join(unknown)}: see python -m pimpm --help")
@@ -114,7 +141,8 @@ def _run(args, comm, fail):
             if sim.solver is not None:
                 sim.solver.destroy()
             return 0
-        return run(config, comm, overwrite=args.overwrite)
+        return run(config, comm, overwrite=args.overwrite, restart=args.restart,
+                   input_path=args.input)
     except (UsageError, SetupError) as err:
         return fail(str(err))
 

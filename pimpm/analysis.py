@@ -3,12 +3,15 @@ observers that see every step (history, output, progress, statistics).
 The command line and the scripts under ``scripts/`` all run simulations
 through :class:`Analysis`, so none re-implements the loop.
 """
+import json
 import os
 import sys
 import time as wallclock
 
-from .errors import StepFailed
+from . import interrupt
+from .errors import StepFailed, UsageError
 from .io import History, ResultWriter, prepare_output_directory, write_results
+from .io.checkpoint import PHYSICS_KEYS, physics_json, read_checkpoint, write_checkpoint
 from .simulation import Simulation
 from .stages import log_stage
 from .step_control import TimeStepControl
@@ -30,6 +33,10 @@ class Observer:
 
     def failed(self, analysis, failure):
         """A step failed with no cut left: the run stops."""
+
+    def interrupted(self, analysis, stop):
+        """A signal stopped the run (``stop``: pimpm.interrupt.Interrupted);
+        the simulation is at its last completed step."""
 
     def finish(self, analysis, status):
         """After the loop (status 0 done, 1 numerical failure)."""
@@ -54,7 +61,9 @@ class Analysis:
 
     def run(self, max_steps=None):
         """Returns 0 when the end time (or ``max_steps``) was reached, 1 when
-        a step failed with no cut left; the observers are closed then. An
+        a step failed with no cut left, 128 + the signal's number when a
+        SIGTERM or SIGINT stopped it (:mod:`pimpm.interrupt`; the step in
+        progress is abandoned); the observers are closed then. An
         unexpected exception propagates; on several ranks the observers are
         left open, since closing them is collective and the other ranks may
         be waiting in another collective (the CLI then stops every rank with
@@ -63,22 +72,28 @@ class Analysis:
         status = 0
         try:
             self._notify("start")
-            while not control.done(sim.time) and (max_steps is None or sim.step_index < max_steps):
-                if sim.integrator.explicit:
-                    control.set_explicit_step(sim)
-                try:
-                    info = sim.advance(control.next_dt(sim.time))
-                except StepFailed as failure:
-                    if control.failed():
-                        self._notify("cut", failure)
-                        continue
-                    self.failure = str(failure)
-                    self._notify("failed", failure)
-                    status = 1
-                    break
-                info["step_cuts"] = control.succeeded(info["newton_iterations"])
-                info["final"] = control.done(sim.time)
-                self._notify("step", info)
+            try:
+                while not control.done(sim.time) and (max_steps is None or sim.step_index < max_steps):
+                    interrupt.inject(sim.comm.rank, sim.step_index + 1)
+                    interrupt.check(sim.comm)                 # collective, at every step boundary
+                    if sim.integrator.explicit:
+                        control.set_explicit_step(sim)
+                    try:
+                        info = sim.advance(control.next_dt(sim.time))
+                    except StepFailed as failure:
+                        if control.failed():
+                            self._notify("cut", failure)
+                            continue
+                        self.failure = str(failure)
+                        self._notify("failed", failure)
+                        status = 1
+                        break
+                    info["step_cuts"] = control.succeeded(info["newton_iterations"])
+                    info["final"] = control.done(sim.time)
+                    self._notify("step", info)
+            except interrupt.Interrupted as stop:             # on every rank at once
+                self._notify("interrupted", stop)
+                status = stop.exit_status
             self._notify("finish", status)
         except BaseException:
             if sim.comm.size == 1:
@@ -93,10 +108,12 @@ class Analysis:
 
 
 class HistoryObserver(Observer):
-    """``history.csv``, one row per step."""
+    """``history.csv``, one row per step (``restart``: continue the file,
+    dropping rows after the checkpoint's step)."""
 
-    def __init__(self, sim, path):
-        self.history = History(sim.comm, path, [b.name for b in sim.rigid_bodies], sim.dim)
+    def __init__(self, sim, path, restart=False):
+        self.history = History(sim.comm, path, [b.name for b in sim.rigid_bodies], sim.dim,
+                               continue_after=sim.step_index if restart else None)
 
     def step(self, analysis, info):
         self.history.write(info)
@@ -107,13 +124,19 @@ class HistoryObserver(Observer):
 
 class OutputObserver(Observer):
     """results.h5 and the XDMF files: the initial state, every ``every``
-    steps, the last step, and after a failure the last good step."""
+    steps, the last step, and after a failure or an interruption the last
+    good step. ``restart``: continue the files of a checkpointed run (steps
+    written after the checkpoint's are dropped; its own is not written again)."""
 
-    def __init__(self, sim, directory, every):
+    def __init__(self, sim, directory, every, restart=False):
         grid = sim.grid
-        self.writer = ResultWriter(sim.comm, directory, sim.dim, grid.lower, grid.spacing, grid.nodes)
+        self.writer = ResultWriter(sim.comm, directory, sim.dim, grid.lower, grid.spacing, grid.nodes,
+                                   append=restart)
+        if restart:
+            self.writer.drop_steps_after(sim.step_index)
         self.every = every
-        self.written = -1
+        self.written = sim.step_index if restart else -1
+        self.restart = restart
 
     def _write(self, sim):
         with log_stage(sim.stages["Output"]):
@@ -121,7 +144,8 @@ class OutputObserver(Observer):
         self.written = sim.step_index
 
     def start(self, analysis):
-        self._write(analysis.sim)
+        if not self.restart:
+            self._write(analysis.sim)
 
     def step(self, analysis, info):
         if info["step"] % self.every == 0 or info["final"]:
@@ -135,10 +159,35 @@ class OutputObserver(Observer):
         self.writer.close()
 
 
-class ProgressObserver(Observer):
-    """One line per step on rank 0; cuts, failures and the end said."""
+class CheckpointObserver(Observer):
+    """``checkpoint.h5`` (pimpm.io.checkpoint): every ``every`` steps (0:
+    never), and always when the run stops on a failure or a signal, so that
+    it can be continued from its last good step."""
 
-    def __init__(self, sim, directory, echo=print):
+    def __init__(self, sim, directory, every):
+        self.directory = directory
+        self.every = every
+
+    def _write(self, analysis):
+        with log_stage(analysis.sim.stages["Output"]):
+            write_checkpoint(analysis.sim, analysis.control, self.directory)
+
+    def step(self, analysis, info):
+        if self.every and info["step"] % self.every == 0:
+            self._write(analysis)
+
+    def failed(self, analysis, failure):
+        self._write(analysis)
+
+    def interrupted(self, analysis, stop):
+        self._write(analysis)
+
+
+class ProgressObserver(Observer):
+    """One line per step on rank 0; cuts, failures, interruptions and the end said."""
+
+    def __init__(self, sim, directory, echo=print, input_path=None):
+        self.input_path = input_path or "INPUT.yaml"
         self.rigid_names = [b.name for b in sim.rigid_bodies]
         self.directory = directory
         self.root = sim.comm.rank == 0
@@ -158,6 +207,14 @@ class ProgressObserver(Observer):
         if self.root:
             print(f"pimpm: error: {failure}, even after {analysis.control.max_cuts} step cuts. "
                   f"Results up to step {sim.step_index} (t = {sim.time:.6g}) are in {self.directory}.",
+                  file=sys.stderr, flush=True)
+
+    def interrupted(self, analysis, stop):
+        sim = analysis.sim
+        if self.root:
+            print(f"pimpm: {stop} during step {sim.step_index + 1}; the state after step "
+                  f"{sim.step_index} (t = {sim.time:.6g}) is in {self.directory}/checkpoint.h5 and its "
+                  f"results are kept: continue with 'python -m pimpm {self.input_path} --restart'",
                   file=sys.stderr, flush=True)
 
     def finish(self, analysis, status):
@@ -220,23 +277,58 @@ def progress_line(info, rigid_names):
             f"wall {info['wall_time']:.2f} s{notes}")
 
 
-def run(config, comm, overwrite=False, echo=print):
+def run(config, comm, overwrite=False, echo=print, restart=False, input_path=None):
     """Run the whole simulation of a validated configuration with output.
     Returns 0 on success, 1 on numerical failure (the results up to the
-    last good step are kept)."""
+    last good step are kept, and a checkpoint of it), 128 + the signal's
+    number when SIGTERM or SIGINT stopped it (likewise). ``restart``:
+    continue from the checkpoint in the output directory (UsageError if
+    there is none, or if the input's grid, materials or bodies changed)."""
     directory = config["output"]["directory"]
-    sim = Simulation(config, comm)          # bad solver options fail here, before any output
-    prepare_output_directory(comm, directory, overwrite)
+    control = TimeStepControl(config["time"])
+    if restart:
+        checkpoint = open_checkpoint(config, comm)
+        sim = Simulation(config, comm, checkpoint)
+        control.restore(checkpoint.control)
+        if control.done(sim.time):
+            raise UsageError(f"time.end_time = {config['time']['end_time']!r}: expected a time after the "
+                             f"checkpoint's t = {sim.time:.6g} (step {sim.step_index}) to continue to")
+    else:
+        sim = Simulation(config, comm)          # bad solver options fail here, before any output
+        prepare_output_directory(comm, directory, overwrite)
     for line in summary(sim, config):
         if comm.rank == 0:
             echo(line)
-    observers = [ProgressObserver(sim, directory, echo),
-                 OutputObserver(sim, directory, config["output"]["every"]),
-                 HistoryObserver(sim, os.path.join(directory, "history.csv"))]
-    status = Analysis(sim, observers).run()
+    if restart and comm.rank == 0:
+        echo(f"  restart   from step {sim.step_index} (t = {sim.time:.6g}) of {directory}/checkpoint.h5")
+    observers = [ProgressObserver(sim, directory, echo, input_path),
+                 CheckpointObserver(sim, directory, config["output"]["checkpoint_every"]),
+                 OutputObserver(sim, directory, config["output"]["every"], restart),
+                 HistoryObserver(sim, os.path.join(directory, "history.csv"), restart)]
+    status = Analysis(sim, observers, control).run()
     if sim.solver is not None:     # (after an exception, the exit handler frees it on every rank)
         sim.solver.destroy()
     return status
+
+
+def open_checkpoint(config, comm):
+    """The checkpoint of ``config``'s output directory, after checking that
+    the input still describes the same physical problem. Collective;
+    UsageError otherwise."""
+    directory = config["output"]["directory"]
+    try:
+        checkpoint = read_checkpoint(directory, comm)
+    except (OSError, KeyError, ValueError) as err:
+        raise UsageError(f"output.directory = {directory!r}: no usable checkpoint.h5 to restart from "
+                         f"({err}): expected the directory of a run that wrote one") from None
+    saved = json.loads(checkpoint.physics)
+    now = json.loads(physics_json(config))
+    for key in PHYSICS_KEYS:
+        if saved.get(key) != now.get(key):
+            raise UsageError(f"{key} differs from the checkpointed run's: expected the same grid, "
+                             f"kinematics, materials and bodies to restart (time, solver and output "
+                             f"may change)")
+    return checkpoint
 
 
 def run_to_end(raw_or_config, comm=None, observers=(), max_steps=None):

@@ -31,6 +31,15 @@ class WorkAccount:
         self.total = 0.0
         self.last_forces = {}          # body name -> force of the last step
 
+    def state(self):
+        """What a checkpoint keeps (JSON-able)."""
+        return {"total": self.total, "last_forces": {k: [float(x) for x in v]
+                                                     for k, v in self.last_forces.items()}}
+
+    def restore(self, state):
+        self.total = float(state["total"])
+        self.last_forces = {k: np.array(v, dtype=float) for k, v in state["last_forces"].items()}
+
     def add(self, forces, rigid_bodies, particles, displacement, gravity, dt):
         """Add one step's work. Collective."""
         work = 0.0

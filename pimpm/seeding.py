@@ -142,6 +142,37 @@ def seed_bodies(config, grid, kinematics, densities, history_fields):
     return particles, rigid
 
 
+def inside_geometry(x, geometry, tolerance):
+    """True for positions strictly inside a body's region (by more than
+    ``tolerance`` per axis from its box faces; strictly inside a curved
+    surface)."""
+    if len(x) == 0:
+        return np.zeros(0, dtype=bool)
+    lo, hi = _bounding_box(geometry)
+    inside = np.all((x > lo + tolerance) & (x < hi - tolerance), axis=1)
+    distance = _signed_distance_curved(x, geometry)
+    return inside if distance is None else inside & (distance < 0.0)
+
+
+def overlapping_bodies(config, particles, grid, comm):
+    """(i, j, count): the first pair of deformable bodies where ``count``
+    particles of body j lie inside body i's region, or None. Overlapping
+    bodies would count the mass of the shared region twice. Collective."""
+    bodies = [(i, b) for i, b in enumerate(config["bodies"]) if not b.get("rigid", False)]
+    pairs = [(i, j) for i, a in bodies for j, b in bodies if i != j]
+    if not pairs:
+        return None
+    tolerance = 1e-9 * grid.spacing
+    counts = np.array([int(np.sum(inside_geometry(particles["x"][particles["body"] == j],
+                                                  config["bodies"][i]["geometry"], tolerance)))
+                       for i, j in pairs], dtype=np.int64)
+    counts = comm.allreduce(counts)
+    for (i, j), n in zip(pairs, counts):
+        if n > 0:
+            return i, j, int(n)
+    return None
+
+
 def particles_per_body(config, particles, rigid, comm):
     """Global number of particles of each body (collective)."""
     counts = np.zeros(len(config["bodies"]), dtype=np.int64)

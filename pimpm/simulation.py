@@ -12,7 +12,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import assembly, bc, energy, faults
+from . import assembly, bc, energy, faults, resources
 from .errors import SetupError, StepFailed
 from .grid import Grid
 from .implicit import StepProblem, StepState, TangentPattern, constraint_scale, residual_scale
@@ -25,8 +25,8 @@ from .materials import make_material
 from .materials import tensors
 from .materials.update import MaterialTable
 from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
-from .particles import migrate, sort_by_cell
-from .seeding import particles_per_body, seed_bodies
+from .particles import ParticleSet, migrate, sort_by_cell
+from .seeding import overlapping_bodies, particles_per_body, seed_bodies
 from .shape import make_shape
 from .solver import DEFAULT_SOLVER_OPTIONS, NewtonSolver, diagnose_solver_options
 from .stages import log_stage, log_stages
@@ -36,14 +36,21 @@ __all__ = ["Simulation", "SetupError", "StepFailed", "DEFAULT_SOLVER_OPTIONS"]
 
 
 class Simulation:
-    def __init__(self, config, comm=MPI.COMM_WORLD):
+    def __init__(self, config, comm=MPI.COMM_WORLD, checkpoint=None):
+        """``checkpoint``: a :class:`pimpm.io.checkpoint.Checkpoint` to continue
+        from instead of seeding the bodies (``--restart``)."""
         self.config = config
         self.comm = comm
         self.dim = dim = config["dim"]
+        problem = resources.check(config, comm.size, 8 * np.dtype(PETSc.IntType).itemsize)
+        if problem:                   # before anything is allocated
+            raise SetupError(problem)
         g = config["grid"]
         self.shape = make_shape(g["shape_functions"], dim)
-        self.grid = Grid(comm, g["lower"], g["upper"], g["cells"],
-                         stencil_width=self.shape.stencil_width)
+        same_layout = checkpoint is not None and checkpoint.same_ranks
+        self.grid = Grid(comm, g["lower"], g["upper"], g["cells"], stencil_width=self.shape.stencil_width,
+                         ownership_ranges=checkpoint.ownership_ranges if same_layout else None,
+                         proc_sizes=checkpoint.proc_sizes if same_layout else None)
         self.boundary = dict(g.get("boundary", {}))
         self.kinematics = make_kinematics(config["kinematics"])
         self.integrator = make_integrator(config["time"])
@@ -55,16 +62,26 @@ class Simulation:
                              for i, b in enumerate(config["bodies"]) if b.get("rigid", False)]
         self.body_material = {i: self.material_names.index(b["material"])
                               for i, b in enumerate(config["bodies"]) if not b.get("rigid", False)}
-        densities = {i: self.materials[m].density for i, m in self.body_material.items()}
-        self.particles, self.rigid = seed_bodies(config, self.grid, self.kinematics, densities,
-                                                 self.history_fields())
-        self._check_every_body_has_particles()
-        self.time = 0.0
-        self.step_index = 0
         self.work = energy.WorkAccount(comm)     # work of rigid bodies and gravity so far
-        self.count0 = self.particles.global_count(comm)
-        self.rigid_count0 = self.rigid.global_count(comm)
-        self.mass0 = float(self.particles.global_sum(comm, "mass"))
+        if checkpoint is None:
+            densities = {i: self.materials[m].density for i, m in self.body_material.items()}
+            self.particles, self.rigid = seed_bodies(config, self.grid, self.kinematics, densities,
+                                                     self.history_fields())
+            self._check_every_body_has_particles()
+            overlap = overlapping_bodies(config, self.particles, self.grid, comm)
+            if overlap:
+                i, j, n = overlap
+                b = config["bodies"]
+                raise SetupError(f"bodies[{j}].geometry = {b[j]['geometry']}: {n} particles of body "
+                                 f"{b[j]['name']!r} lie inside body {b[i]['name']!r}: expected deformable "
+                                 f"bodies that do not overlap (the mass of the overlap would count twice)")
+            self.time = 0.0
+            self.step_index = 0
+            self.count0 = self.particles.global_count(comm)
+            self.rigid_count0 = self.rigid.global_count(comm)
+            self.mass0 = float(self.particles.global_sum(comm, "mass"))
+        else:
+            self._restore(checkpoint)
         largest = float(np.max(self.particles["mass"])) if len(self.particles) else 0.0
         self.mass_floor = 1e-10 * comm.allreduce(largest, op=MPI.MAX)
         self.stages = log_stages()
@@ -74,7 +91,7 @@ class Simulation:
         self.balance = db.getBool("pimpm_balance", True)      # -pimpm_balance 0: PETSc's even split
         #: repartition before a step when the particle imbalance exceeds this
         self.rebalance_threshold = db.getReal("pimpm_rebalance_threshold", 1.1)
-        if self.balance:
+        if self.balance and not same_layout:
             self.balance_ranks()
         if self.integrator.explicit:
             problem = self.integrator.check_time_step(self)
@@ -82,6 +99,30 @@ class Simulation:
                 raise SetupError(problem)
             return
         self._make_solver()
+
+    def _restore(self, checkpoint):
+        """The state of a checkpoint: particles (on the same number of ranks,
+        each rank's own in their order; otherwise the ones in this rank's
+        cells), time, step, work and the initial count and mass. Collective."""
+        fields = {}
+        for name, data in checkpoint.sets.items():
+            pset = ParticleSet(data)
+            if not checkpoint.same_ranks:
+                keep = self.grid.owner_of_cells(self.grid.cell_of(pset["x"])) == self.comm.rank
+                pset.take(np.flatnonzero(keep))
+                sort_by_cell(pset, self.grid)
+            fields[name] = pset
+        self.particles, self.rigid = fields["particles"], fields["rigid"]
+        self.time = checkpoint.time
+        self.step_index = checkpoint.step
+        self.work.restore(checkpoint.work)
+        self.count0 = checkpoint.initial["count"]
+        self.rigid_count0 = checkpoint.initial["rigid_count"]
+        self.mass0 = checkpoint.initial["mass"]
+        count = self.particles.global_count(self.comm)
+        if count != self.count0 or self.rigid.global_count(self.comm) != self.rigid_count0:
+            raise SetupError(f"the checkpoint holds {count} particles where its run had {self.count0}: "
+                             f"expected an intact checkpoint")
 
     def _make_solver(self):
         """The step problem and its Newton solver on the current grid."""

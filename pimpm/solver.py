@@ -79,6 +79,41 @@ def _check_tolerances(snes, yaml_options, fallback=None):
             raise ValueError(f"{where} = {value:g}: expected {what}")
 
 
+def _check_factorizations(snes, yaml_options, fallback=None):
+    """A factorization package that PETSc does not have for the chosen
+    factorization (-pc_factor_mat_solver_type nonsense, or superlu for a
+    Cholesky) fails at the first solve, which pimpm would report as a
+    numerical failure. Try each on a 1x1 matrix now, naming the option."""
+    pcs = [("", snes.getKSP().getPC())]
+    if fallback is not None and fallback.direct is not None:
+        pcs = [("", fallback.iterative.getPC()), ("fallback_", fallback.direct.getPC())]
+    for prefix, pc in pcs:
+        kind = pc.getType()
+        if kind not in ("lu", "cholesky", "ilu", "icc"):
+            continue
+        package = pc.getFactorSolverType()
+        if package is None:
+            continue
+        A = PETSc.Mat().createAIJ((1, 1), nnz=1, comm=PETSc.COMM_SELF)
+        A.setValue(0, 0, 1.0)
+        A.assemble()
+        ksp = PETSc.KSP().create(comm=PETSc.COMM_SELF)
+        try:
+            ksp.setOperators(A)
+            ksp.setType(PETSc.KSP.Type.PREONLY)
+            ksp.getPC().setType(kind)
+            ksp.getPC().setFactorSolverType(package)
+            ksp.setUp()
+        except PETSc.Error:
+            name = prefix + "pc_factor_mat_solver_type"
+            where = f"solver.petsc.{name}" if name in yaml_options else f"-{name}"
+            raise ValueError(f"{where} = {package!r}: expected a factorization package PETSc has for "
+                             f"-{prefix}pc_type {kind} (mumps; superlu_dist and petsc for lu)") from None
+        finally:
+            ksp.destroy()
+            A.destroy()
+
+
 def _rejected_option(yaml_options):
     """The first option (YAML ``solver.petsc`` or command line) that a scratch
     SNES rejects when it is the only option in the database, as a message;
@@ -161,9 +196,6 @@ class NewtonSolver:
         self.R = self.da.createGlobalVec()
         self.symmetric = problem.symmetric and not self.matrix_free
         self.near_null_space = iterative and not self.matrix_free
-        #: the pattern of the current tangent matrix (None: not made on a pattern)
-        self.pattern = None
-        self.patterns_made = self.patterns_reused = 0
         self.on_pattern = problem.assembles_on_pattern and not self.matrix_free
         if self.on_pattern:        # a placeholder until the first step's pattern is known
             self.J = diagonal_matrix(self.da)
@@ -190,6 +222,7 @@ class NewtonSolver:
         _LIVE_SOLVERS.add(self)
         try:
             _check_tolerances(self.snes, solver_config["petsc"], self.fallback)
+            _check_factorizations(self.snes, solver_config["petsc"], self.fallback)
         except ValueError:
             self.destroy()        # before PetscFinalize: the python KSP context
             raise
@@ -202,25 +235,18 @@ class NewtonSolver:
             J.setNearNullSpace(rigid_body_near_null_space(self.grid))
 
     def prepare(self, state, step=0):
-        """Begin a step (``step``: its number): the problem's state, and the
-        tangent matrix for the step's nonzero pattern. The matrix of the last
-        step serves as long as the step's couplings are among its own and
-        fill at least :data:`PATTERN_REUSE` of them (its other entries are
-        then explicit zeros, and the symbolic factorization is reused);
-        otherwise a matrix is made on the step's own pattern. Collective."""
+        """Begin a step (``step``: its number): the problem's state, and a
+        tangent matrix made on the step's own nonzero pattern (it changes as
+        particles move; the Newton iterations of the step then reuse its
+        symbolic factorization). A matrix per step also makes a step's
+        factorization depend on that step alone: a direct solver's analysis
+        may use the values of the matrix it first sees, and a run continued
+        from a checkpoint must repeat the uninterrupted one bit for bit.
+        Collective."""
         self.problem.begin(state, step)
         if not self.on_pattern:
             return
-        new = state.pattern
-        if self.pattern is not None:
-            local = new.within(self.pattern)
-            counts = self.grid.comm.allreduce(np.array([int(not local), len(new.indices),
-                                                        len(self.pattern.indices)]))
-            if counts[0] == 0 and counts[1] >= PATTERN_REUSE * counts[2]:
-                state.pattern = self.pattern         # add the blocks where this matrix has them
-                self.patterns_reused += 1
-                return
-        J = self.problem.create_jacobian(False, new)
+        J = self.problem.create_jacobian(False, state.pattern)
         self._set_matrix_options(J)
         if self._mf_operator():       # the operator stays the finite-difference one
             self.snes.setJacobian(self.problem.form_jacobian, None, J)
@@ -228,8 +254,6 @@ class NewtonSolver:
             self.snes.setJacobian(self.problem.form_jacobian, J, J)
         self.J.destroy()
         self.J = J
-        self.pattern = new
-        self.patterns_made += 1
 
     def destroy(self):
         """Free the PETSc objects now (collective); Python contexts held by
@@ -319,11 +343,6 @@ def diagonal_matrix(da):
     X.destroy()
     return J
 
-
-#: a step's couplings may reuse the last tangent matrix when they fill at
-#: least this share of its pattern (docs/PERFORMANCE.md: on the billet the
-#: pattern shrinks a little at most steps as the platen leaves node rows)
-PATTERN_REUSE = 0.9
 
 _LIVE_SOLVERS = weakref.WeakSet()
 

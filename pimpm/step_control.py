@@ -5,10 +5,12 @@ steps, landing on the end time."""
 class TimeStepControl:
     """Step sizes: an optional ramp from ``dt_initial`` up to ``dt`` by at most
     ``ramp_factor`` per step (Sulsky & Kaul 3.1.1 use 20%); a failed step is
-    cut in half and retried, at most ``max_cuts`` times in a row; after a cut,
-    dt grows back by ``ramp_factor`` after each easy step (at most
-    ``easy_newton_iterations`` Newton iterations). The last step is shortened
-    to land on ``end_time``."""
+    cut in half and retried, at most ``max_cuts`` times in a row and never
+    below 2^-max_cuts of the smaller of ``dt`` and ``dt_initial``, so that a
+    hopeless run stops instead of creeping on ever tinier steps that succeed
+    between failures; after a cut, dt grows back by ``ramp_factor`` after
+    each easy step (at most ``easy_newton_iterations`` Newton iterations).
+    The last step is shortened to land on ``end_time``."""
 
     def __init__(self, time_config):
         self.fixed = time_config["dt"]
@@ -19,6 +21,22 @@ class TimeStepControl:
         self.easy = time_config["easy_newton_iterations"]
         self.end = time_config["end_time"]
         self.cuts = 0               # consecutive cuts of the current step
+        self.initial = self.dt
+
+    def state(self):
+        """What a checkpoint keeps: the current step size, the ramp's target
+        and start, and the cuts of the step in progress (JSON-able)."""
+        return {"dt": self.dt, "target": self.target, "initial": self.initial, "cuts": self.cuts}
+
+    def restore(self, state):
+        """Continue from a checkpoint; a time.dt changed since is the new target."""
+        self.dt = state["dt"]
+        self.initial = state["initial"]
+        self.cuts = state["cuts"]
+        if self.fixed is None or self.fixed == state["target"]:
+            self.target = state["target"]
+        elif self.dt is not None:
+            self.dt = min(self.dt, self.fixed)
 
     def set_explicit_step(self, sim):
         """Explicit steps follow the CFL limit (or the fixed time.dt below it)."""
@@ -45,8 +63,12 @@ class TimeStepControl:
         return dt
 
     def failed(self):
-        """Cut the step; False when no cut is left."""
+        """Cut the step; False when no cut is left (``max_cuts`` in a row, or
+        the step would fall below the floor)."""
         if self.cuts >= self.max_cuts:
+            return False
+        smallest = min(x for x in (self.initial, self.target) if x is not None)
+        if 0.5 * self.dt < smallest * 0.5 ** self.max_cuts * (1.0 - 1e-12):
             return False
         self.cuts += 1
         self.dt *= 0.5

@@ -3,17 +3,15 @@ import math
 
 import numpy as np
 
+from . import resources
 from .seeding import particles_per_body
 
 
-def step_times(end_time, dt):
-    """Time-step sizes to reach end_time: full steps then a shorter last one."""
+def step_count(end_time, dt):
+    """Steps of dt to reach end_time (a shorter last one counted; a sliver
+    of less than 1e-9 dt not)."""
     n = max(1, math.ceil(end_time / dt - 1e-9))
-    sizes = [dt] * n
-    sizes[-1] = end_time - dt * (n - 1)
-    if sizes[-1] <= 1e-9 * dt:
-        sizes.pop()
-    return sizes
+    return n - 1 if n > 1 and end_time - dt * (n - 1) <= 1e-9 * dt else n
 
 
 def explicit_time_step(sim):
@@ -27,7 +25,7 @@ def summary(sim, config):
     comm = sim.comm
     counts = particles_per_body(config, sim.particles, sim.rigid, comm)
     t = config["time"]
-    steps = step_times(t["end_time"], t["dt"]) if t["dt"] is not None else []
+    steps = step_count(t["end_time"], t["dt"]) if t["dt"] is not None else 0
     cells = "x".join(str(int(c)) for c in sim.grid.cells)
     lines = [
         f"pimpm: {config.get('title') or 'untitled'}",
@@ -49,8 +47,9 @@ def summary(sim, config):
             + (" (momentum formulation)" if t["formulation"] == "momentum" else "")
         lines.append(f"  time      {scheme}, dt {t['dt']:g} ({t['dt'] / dt_explicit:.3g} x "
                      f"explicit CFL step {dt_explicit:.3g}), end {t['end_time']:g}, "
-                     f"{len(steps)} steps")
+                     f"{steps} steps")
     lines.append(f"  output    {config['output']['directory']} every {config['output']['every']} steps")
+    lines.append(resources.summary_line(config, comm.size))
     if sim.solver is not None:
         lines.append(f"  solver    {sim.solver.describe()}")
     else:

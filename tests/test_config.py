@@ -98,7 +98,7 @@ def test_base_config_normalizes_with_defaults():
                              "convergence": {"test": "petsc", "displacement_tolerance": 1e-6,
                                              "energy_tolerance": 1e-12},
                              "petsc": {}}
-    assert cfg["output"] == {"directory": "pimpm_output", "every": 1}
+    assert cfg["output"] == {"directory": "pimpm_output", "every": 1, "checkpoint_every": 0}
     assert list(cfg) == ["title", "dim", "grid", "kinematics", "materials", "bodies", "time",
                          "solver", "output"]
 
@@ -128,7 +128,7 @@ def test_minimal_config_defaults():
     assert cfg["grid"]["boundary"] == dict.fromkeys(["xmin", "xmax", "ymin", "ymax"], "free")
     assert cfg["time"]["integrator"] == "newmark"
     assert cfg["time"]["gravity"] == [0.0, 0.0]
-    assert cfg["output"] == {"directory": "disk_output", "every": 1}
+    assert cfg["output"] == {"directory": "disk_output", "every": 1, "checkpoint_every": 0}
     body = cfg["bodies"][0]
     assert body["particles_per_cell"] == [2, 2]
     assert body["velocity"] == [0.0, 0.0]
@@ -206,8 +206,9 @@ def test_petsc_options_normalized():
 
 def test_output_options():
     raw = base()
-    raw["output"] = {"directory": "out/run", "every": 5}
-    assert validate(raw, source_name="billet")["output"] == {"directory": "out/run", "every": 5}
+    raw["output"] = {"directory": "out/run", "every": 5, "checkpoint_every": 10}
+    assert validate(raw, source_name="billet")["output"] == {"directory": "out/run", "every": 5,
+                                                             "checkpoint_every": 10}
 
 
 def test_body_touching_grid_edge_within_tolerance():

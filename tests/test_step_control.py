@@ -39,3 +39,18 @@ def test_after_cuts_the_end_is_split_rather_than_slivered():
     first = c.next_dt(t)
     assert first == pytest.approx(0.5 * (9e-3 - t))
     assert c.next_dt(t + first) == pytest.approx(first)
+
+
+def test_failures_between_tiny_successes_cannot_shrink_the_step_forever():
+    """A hopeless run (each step fails, then succeeds when cut): the cuts may
+    not take dt below 2^-max_cuts of time.dt, so the run stops within a few
+    steps instead of creeping on ever tinier ones."""
+    c = control(0.01, 1.0)
+    stopped_after = None
+    for attempt in range(100):
+        if not c.failed():
+            stopped_after = attempt
+            break
+        assert c.dt >= 0.01 / 16 * (1 - 1e-12)
+        c.succeeded(20)                # a hard (not easy) success: dt does not grow back
+    assert stopped_after is not None and stopped_after <= 4

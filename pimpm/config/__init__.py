@@ -29,13 +29,12 @@ and an integrator's own parameters come from their registries.
 import copy
 import os
 
-import yaml
-
 from .bodies import _validate_bodies, _validate_materials
+from .derived import check_derived
 from .checks import _MISSING, ROOT, ConfigError, _enum, _fail, _Section
 from .schema import KINEMATICS, TOP_KEYS
 from .sections import _validate_grid, _validate_output, _validate_solver, _validate_time
-from .yaml_input import _index_nodes, _line_for, _yaml_error_message
+from .yaml_input import _line_for, read_yaml
 
 __all__ = ["ConfigError", "load_config", "validate"]
 
@@ -74,9 +73,11 @@ def validate(raw, source_name=None):
     solver = _validate_solver(top.optional("solver"), "solver")
     output = _validate_output(top.optional("output"), "output", source_name)
 
-    return {"title": title, "dim": dim, "grid": grid, "kinematics": kin,
-            "materials": materials, "bodies": bodies, "time": time, "solver": solver,
-            "output": output}
+    config = {"title": title, "dim": dim, "grid": grid, "kinematics": kin,
+              "materials": materials, "bodies": bodies, "time": time, "solver": solver,
+              "output": output}
+    check_derived(config)
+    return config
 
 
 def load_config(path):
@@ -87,25 +88,7 @@ def load_config(path):
     the line (``billet.yaml:12: materials.rubber.density = -1.0: expected ...``).
     """
     fname = os.fspath(path)
-    try:
-        with open(fname, "r", encoding="utf-8") as fh:
-            text = fh.read()
-    except FileNotFoundError:
-        raise ConfigError(f"{fname}: file not found: expected an existing YAML input file") \
-            from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"{fname}: cannot read file ({err.__class__.__name__}: {err}): "
-                          f"expected a readable UTF-8 YAML input file") from None
-
-    try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        raw = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise ConfigError(_yaml_error_message(fname, err)) from None
-
-    lines = {}
-    if node is not None:
-        _index_nodes(node, ROOT, lines, fname, set())
+    raw, lines = read_yaml(fname)
 
     if raw is None:
         raise ConfigError(f"{fname}: the file is empty: expected a YAML mapping with the "

@@ -180,4 +180,6 @@ def _validate_output(value, path, source_name):
         directory = _string(directory, sec.sub("directory"), "a non-empty directory path")
     every = sec.optional("every")
     every = 1 if every is _MISSING else _int(every, sec.sub("every"))
-    return {"directory": directory, "every": every}
+    checkpoint = sec.optional("checkpoint_every")
+    checkpoint = 0 if checkpoint is _MISSING else _int(checkpoint, sec.sub("checkpoint_every"), minimum=0)
+    return {"directory": directory, "every": every, "checkpoint_every": checkpoint}

@@ -15,7 +15,7 @@ Prescribed dofs are eliminated symmetrically: their rows are
 import numpy as np
 from petsc4py import PETSc
 
-from .. import faults
+from .. import faults, interrupt
 from ..kernels import particle_step
 from ..materials.base import youngs_modulus
 from ..stages import log_stage
@@ -199,7 +199,12 @@ class StepProblem:
         if not evaluation.matches(kinematic):
             with self._stage("Constitutive update"):
                 evaluation.evaluate(st, kinematic, self.grid.dim)
-        if self.grid.comm.allreduce(evaluation.inverted) > 0:
+        # one reduction tells every rank about inverted particles and signals:
+        # a run being stopped abandons its step here, on all ranks at once
+        inverted, signum = interrupt.agreed(self.grid.comm, evaluation.inverted)
+        if signum:
+            raise interrupt.Interrupted(signum)
+        if inverted > 0:
             self.inverted = True
             return None
         return evaluation

@@ -91,9 +91,3 @@ class TangentPattern:
     slot_position: np.ndarray
     scalar_indptr: np.ndarray
     scalar_indices: np.ndarray
-
-    def within(self, other):
-        """Are all of this pattern's couplings on this rank among ``other``'s
-        (the same grid)?"""
-        return (self.width == other.width and self.slot_position.shape == other.slot_position.shape
-                and bool(np.all(other.slot_position[self.slot_position >= 0] >= 0)))

@@ -1,11 +1,15 @@
-"""The output directory: never overwrite results unless asked."""
+"""The output directory: never overwrite results unless asked, never write
+through a link."""
 import os
 
 from ..errors import UsageError
 from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF
 
 HISTORY_CSV = "history.csv"
-OUTPUT_FILES = (H5_NAME, PARTICLES_XDMF, GRID_XDMF, HISTORY_CSV)
+CHECKPOINT_H5 = "checkpoint.h5"
+OUTPUT_FILES = (H5_NAME, PARTICLES_XDMF, GRID_XDMF, HISTORY_CSV, CHECKPOINT_H5)
+#: every name pimpm writes in the output directory (results and their temporaries)
+ALL_NAMES = OUTPUT_FILES + tuple(f + ".tmp" for f in OUTPUT_FILES)
 
 
 def prepare_output_directory(comm, directory, overwrite):
@@ -13,9 +17,14 @@ def prepare_output_directory(comm, directory, overwrite):
     Collective; raises UsageError on every rank."""
     problem = None
     if comm.rank == 0:
-        existing = [f for f in OUTPUT_FILES if os.path.exists(os.path.join(directory, f))]
+        existing = [f for f in OUTPUT_FILES if os.path.lexists(os.path.join(directory, f))]
+        links = [f for f in ALL_NAMES if os.path.islink(os.path.join(directory, f))]
         if os.path.exists(directory) and not os.path.isdir(directory):
             problem = f"output.directory = {directory!r}: exists and is not a directory"
+        elif links:
+            problem = (f"output.directory = {directory!r}: {os.path.join(directory, links[0])!r} is a "
+                       f"symbolic link: expected pimpm's output files not to be links (pimpm never "
+                       f"writes through one; remove it)")
         elif existing and not overwrite:
             problem = (f"output.directory = {directory!r} already holds results "
                        f"({', '.join(existing)}): expected a new directory "
@@ -23,8 +32,8 @@ def prepare_output_directory(comm, directory, overwrite):
     if comm.rank == 0 and problem is None:
         try:
             os.makedirs(directory, exist_ok=True)
-            for f in OUTPUT_FILES:
-                if os.path.exists(os.path.join(directory, f)):
+            for f in ALL_NAMES:
+                if os.path.lexists(os.path.join(directory, f)):
                     os.remove(os.path.join(directory, f))
         except OSError as err:
             problem = (f"output.directory = {directory!r}: cannot be created or cleared "

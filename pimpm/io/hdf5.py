@@ -26,6 +26,36 @@ from .xdmf import write_xdmf
 __all__ = ["ResultWriter", "H5_NAME", "PARTICLES_XDMF", "GRID_XDMF"]
 
 
+def collective_transfer():
+    """A dataset transfer property list for collective MPI-IO writes."""
+    import h5py
+    dxpl = h5py.h5p.create(h5py.h5p.DATASET_XFER)
+    dxpl.set_dxpl_mpio(h5py.h5fd.MPIO_COLLECTIVE)
+    return dxpl
+
+
+def write_slab(dset, start, data, dxpl):
+    """Write ``data`` at ``start`` of ``dset``. All ranks call this with the
+    collective transfer ``dxpl`` (None: serial file); a rank with nothing to
+    write takes part with an empty selection (h5py's ``dset[a:a] = x`` would
+    skip the call and deadlock the others)."""
+    import h5py
+    if data.size > 0:
+        data = np.ascontiguousarray(data, dtype=dset.dtype)
+        fspace = dset.id.get_space()
+        fspace.select_hyperslab(tuple(int(s) for s in start), data.shape)
+        mspace = h5py.h5s.create_simple(data.shape)
+    else:
+        if dxpl is None:
+            return  # serial: nothing to do
+        fspace = dset.id.get_space()
+        fspace.select_none()
+        mspace = h5py.h5s.create_simple((1,))
+        mspace.select_none()
+        data = np.zeros((1,), dtype=dset.dtype)
+    dset.id.write(mspace, fspace, data, dxpl=dxpl)
+
+
 class ResultWriter:
     """One HDF5 file per run (results.h5) written in parallel + XDMF files ParaView opens.
 
@@ -91,9 +121,7 @@ class ResultWriter:
         mode = "a" if append else "w"
         if self.size > 1:
             self._file = h5py.File(self.path, mode, driver="mpio", comm=comm)
-            dxpl = h5py.h5p.create(h5py.h5p.DATASET_XFER)
-            dxpl.set_dxpl_mpio(h5py.h5fd.MPIO_COLLECTIVE)
-            self._dxpl = dxpl
+            self._dxpl = collective_transfer()
         else:
             self._file = h5py.File(self.path, mode)
             self._dxpl = None
@@ -139,6 +167,17 @@ class ResultWriter:
         self._records[plan["step"]] = plan["record"]
         self._write_xdmf_checked()
 
+    def drop_steps_after(self, step):
+        """Remove the steps written after ``step`` (a restart from its
+        checkpoint writes them again). Collective."""
+        steps = self._file["steps"]
+        for name in sorted(steps.keys()):
+            if int(steps[name].attrs["step"]) > step:
+                del steps[name]
+        self._records = {s: r for s, r in self._records.items() if s <= step}
+        self._file.flush()
+        self._write_xdmf_checked()
+
     def close(self):
         """Close the HDF5 file (collective). Safe to call twice."""
         if self._file is not None:
@@ -162,22 +201,7 @@ class ResultWriter:
         return dset
 
     def _write_slab(self, dset, start, data):
-        """Write ``data`` at ``start`` (all ranks call this; empty data = empty selection)."""
-        h5s = self._h5py.h5s
-        if data.size > 0:
-            data = np.ascontiguousarray(data, dtype=dset.dtype)
-            fspace = dset.id.get_space()
-            fspace.select_hyperslab(tuple(int(s) for s in start), data.shape)
-            mspace = h5s.create_simple(data.shape)
-        else:
-            if self._dxpl is None:
-                return  # serial: nothing to do
-            fspace = dset.id.get_space()
-            fspace.select_none()
-            mspace = h5s.create_simple((1,))
-            mspace.select_none()
-            data = np.zeros((1,), dtype=dset.dtype)
-        dset.id.write(mspace, fspace, data, dxpl=self._dxpl)
+        write_slab(dset, start, data, self._dxpl)
 
     def _write_plan(self, plan, particle_fields, grid_fields):
         f = self._file

@@ -1,9 +1,16 @@
 """``history.csv``: one row per step (rank 0 writes; flushed every row)."""
 import csv
+import io
+import os
+
+from .safe_files import atomic_write_text, open_append, open_new
 
 
 class History:
-    def __init__(self, comm, path, rigid_names, dim):
+    """``continue_after``: continue an existing file (a restart), keeping its
+    rows up to that step and dropping those after it."""
+
+    def __init__(self, comm, path, rigid_names, dim, continue_after=None):
         self.comm = comm
         self.rigid_names = rigid_names
         self.dim = dim
@@ -16,10 +23,25 @@ class History:
         self.columns += ["particle_imbalance", "wall_time"]
         self.file = None
         if comm.rank == 0:
-            self.file = open(path, "w", newline="")
-            self.writer = csv.writer(self.file)
-            self.writer.writerow(self.columns)
-            self.file.flush()
+            if continue_after is None:
+                self.file = open_new(path, newline="")
+                self.writer = csv.writer(self.file)
+                self.writer.writerow(self.columns)
+                self.file.flush()
+            else:
+                self._keep_rows_up_to(path, continue_after)
+                self.file = open_append(path, newline="")
+                self.writer = csv.writer(self.file)
+
+    def _keep_rows_up_to(self, path, step):
+        rows = []
+        if os.path.isfile(path) and not os.path.islink(path):
+            with open(path, newline="") as f:
+                rows = [r for r in csv.reader(f)]
+        kept = [self.columns] + [r for r in rows[1:] if r and int(r[0]) <= step]
+        text = io.StringIO()
+        csv.writer(text).writerows(kept)
+        atomic_write_text(path, text.getvalue())
 
     def write(self, info):
         if self.file is None:

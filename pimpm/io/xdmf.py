@@ -17,6 +17,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from .safe_files import atomic_write_text
 from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF, _xdmf_number_type
 
 
@@ -109,9 +110,4 @@ def _atomic_write(path, root):
         ET.indent(root, space="  ")
     body = ET.tostring(root, encoding="unicode")
     text = '<?xml version="1.0" ?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n' + body + "\n"
-    tmp = path + ".tmp"
-    with open(tmp, "w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    atomic_write_text(path, text)
