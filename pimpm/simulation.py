@@ -24,6 +24,7 @@ from .kinematics import make_kinematics
 from .materials import make_material
 from .materials import tensors
 from .materials.update import MaterialTable
+from .options import pimpm_option
 from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
 from .particles import ParticleSet, migrate, sort_by_cell
 from .seeding import overlapping_bodies, particles_per_body, seed_bodies
@@ -87,10 +88,12 @@ class Simulation:
         self.stages = log_stages()
         self.solver = None
         self.last_grid = None
-        db = PETSc.Options()
-        self.balance = db.getBool("pimpm_balance", True)      # -pimpm_balance 0: PETSc's even split
-        #: repartition before a step when the particle imbalance exceeds this
-        self.rebalance_threshold = db.getReal("pimpm_rebalance_threshold", 1.1)
+        try:
+            self.balance = pimpm_option("pimpm_balance", True)      # -pimpm_balance 0: PETSc's even split
+            #: repartition before a step when the particle imbalance exceeds this
+            self.rebalance_threshold = pimpm_option("pimpm_rebalance_threshold", 1.1)
+        except ValueError as err:
+            raise SetupError(str(err)) from None
         if self.balance and not same_layout:
             self.balance_ranks()
         if self.integrator.explicit:

@@ -14,6 +14,7 @@ from petsc4py import PETSc
 
 from .convergence import GuilkeyWeissTest
 from .linear import FALLBACK_OPTIONS, PRESETS, FallbackKSP, rigid_body_near_null_space
+from .options import pimpm_option
 from .stages import log_stage
 
 #: program defaults for PETSc options (the preset, then the YAML, then the command line override).
@@ -154,7 +155,7 @@ class NewtonSolver:
         self.da = grid.da
         self.stages = stages or {}
         db = PETSc.Options()
-        self.preset = db.getString("pimpm_preset", solver_config["preset"])
+        self.preset = pimpm_option("pimpm_preset", solver_config["preset"])
         if self.preset not in PRESETS:
             raise ValueError(f"-pimpm_preset {self.preset}: expected one of {', '.join(PRESETS)}")
         preset_options, iterative, needs_symmetry, self.matrix_free = PRESETS[self.preset]
@@ -163,8 +164,8 @@ class NewtonSolver:
             raise ValueError(f"{where} = {self.preset!r}: expected a preset for non-symmetric "
                              f"tangents (gmres-gamg, mumps, jfnk or matrix-free) with {problem.asymmetry}")
         self.fallback = None
-        use_fallback = iterative and not self.matrix_free and db.getBool(
-            "pimpm_fallback", solver_config["fallback"])
+        fallback = pimpm_option("pimpm_fallback", bool(solver_config["fallback"]))
+        use_fallback = iterative and not self.matrix_free and fallback
         options = dict(default_options)
         options.update(preset_options)
         if use_fallback:
@@ -183,12 +184,12 @@ class NewtonSolver:
         options.update(solver_config["petsc"])          # the YAML refines the preset
         self.options = options
         conv = solver_config["convergence"]
-        test = db.getString("pimpm_convergence_test", conv["test"])
+        test = pimpm_option("pimpm_convergence_test", conv["test"])
         self.gw_test = None
         if test == "guilkey_weiss":
             self.gw_test = GuilkeyWeissTest(
-                db.getReal("pimpm_gw_displacement_tol", conv["displacement_tolerance"]),
-                db.getReal("pimpm_gw_energy_tol", conv["energy_tolerance"]))
+                pimpm_option("pimpm_gw_displacement_tol", float(conv["displacement_tolerance"])),
+                pimpm_option("pimpm_gw_energy_tol", float(conv["energy_tolerance"])))
         elif test != "petsc":
             raise ValueError(f"-pimpm_convergence_test {test}: expected petsc or guilkey_weiss")
 

@@ -269,6 +269,26 @@ def output_is_a_file(directory):
     return ["bad.yaml"]
 
 
+def fifo_input(directory):
+    """The input is a FIFO nobody writes to: reading it would block forever."""
+    os.mkfifo(os.path.join(directory, "bad.yaml"))
+    return ["bad.yaml"]
+
+
+def link_in_output(name, target_exists=True):
+    """A pre-placed symbolic link where pimpm writes one of its files."""
+    def setup(directory):
+        write_yaml(os.path.join(directory, "bad.yaml"), bar(directory="out"))
+        os.makedirs(os.path.join(directory, "out"))
+        target = os.path.join(directory, "victim.txt")
+        if target_exists:
+            with open(target, "w") as f:
+                f.write("precious\n")
+        os.symlink(target, os.path.join(directory, "out", name))
+        return ["bad.yaml"]
+    return setup
+
+
 BAD_INPUTS = {
     "negative shear modulus": (
         None, yaml_case(set_key(["materials", "elastic"], {
@@ -351,6 +371,50 @@ BAD_INPUTS = {
     "output directory cannot be created": (
         None, yaml_case(set_key(["output"], {"directory": "/dev/null/sub"})),
         ["output.directory", "/dev/null/sub"]),
+    # issue 13's table of inputs that used to escape (docs/RELIABILITY.md)
+    "self-referencing alias": (None, text_case("title: &a [*a]\n"), ["bad.yaml:1", "alias *a"]),
+    "a million cells per axis, --check": (
+        None, yaml_case(set_key(["grid", "cells"], [1000000, 1000000]), "--check"),
+        ["grid.cells = [1000000, 1000000]", "32-bit indices"]),
+    "dt 1e-12 with end_time 1": (
+        None, yaml_case(lambda cfg: cfg["time"].update(dt=1e-12, end_time=1.0)),
+        ["time.end_time = 1.0", "at most 10,000,000 steps"]),
+    "moduli 1e308": (
+        None, yaml_case(lambda cfg: cfg["materials"]["elastic"].update(youngs_modulus=1e308)),
+        ["materials.elastic.youngs_modulus = 1e+308", "finite, normal"]),
+    "input is a FIFO": (None, fifo_input, ["bad.yaml: is a FIFO"]),
+    "input is /dev/zero": (None, lambda directory: ["/dev/zero"], ["/dev/zero: is a device"]),
+    "iterative preset with a bad KSP type": (
+        None, yaml_case(lambda cfg: None, "-pimpm_preset", "cg-gamg", "-ksp_type", "nonsense"),
+        ["-ksp_type", "nonsense"]),
+    "iterative preset with a bad value type": (
+        2, yaml_case(lambda cfg: None, "-pimpm_preset", "gmres-gamg", "-ksp_max_it", "abc"),
+        ["-ksp_max_it abc", "rejected by PETSc"]),
+    "iterative preset, bad option in the YAML": (
+        None, yaml_case(set_key(["solver"], {"preset": "gmres-gamg", "petsc": {"ksp_type": "nonsense"}})),
+        ["solver.petsc.ksp_type", "nonsense"]),
+    "negative Krylov tolerance": (
+        None, yaml_case(lambda cfg: None, "-pimpm_preset", "cg-gamg", "-ksp_rtol", "-5"),
+        ["-ksp_rtol", "-5", "number >= 0"]),
+    "unknown factorization package": (
+        None, yaml_case(lambda cfg: None, "-pc_factor_mat_solver_type", "nonsense"),
+        ["-pc_factor_mat_solver_type = 'nonsense'", "factorization package"]),
+    "unknown line search": (
+        None, yaml_case(lambda cfg: None, "-snes_linesearch_type", "nonsense"),
+        ["-snes_linesearch_type nonsense", "rejected by PETSc"]),
+    "fallback flag not a boolean": (
+        None, yaml_case(lambda cfg: None, "-pimpm_fallback", "abc"),
+        ["-pimpm_fallback"]),
+    "options file that does not exist": (
+        None, yaml_case(lambda cfg: None, "-options_file", "/nonexistent"),
+        ["-options_file /nonexistent", "readable file"]),
+    "overlapping deformable bodies": (
+        None, yaml_case(lambda cfg: cfg["bodies"].insert(1, dict(cfg["bodies"][0], name="twin"))),
+        ["bodies[1].geometry", "lie inside body", "overlap"]),
+    "a link where the XDMF temporary goes": (
+        None, link_in_output("particles.xdmf.tmp"), ["particles.xdmf.tmp", "symbolic link"]),
+    "a dangling link where history.csv goes": (
+        None, link_in_output("history.csv", target_exists=False), ["history.csv", "symbolic link"]),
 }
 
 

@@ -1,0 +1,245 @@
+"""Checkpoint and restart (issue 13; docs/RELIABILITY.md), as Uintah's test
+harness does for its regression inputs: a short run is stopped by a signal
+mid-run (injected on one rank at the start of a step, through the real
+handler), continued with --restart, and compared with the same run left
+alone: bit for bit on the same number of ranks (every history column but
+the wall time, every particle field of the last output step), to 1e-8 on
+another number of ranks. Then real signals: SIGTERM to mpiexec, SIGINT to
+one rank, a second signal, and restarts that must be refused."""
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+
+from helpers import MPIEXEC, ROOT, coarse_billet, coarse_upsetting, mpi_env, write_yaml
+
+pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
+
+
+def pimpm(nranks, args, cwd, env=None, timeout=300):
+    cmd = [MPIEXEC, "-n", str(nranks)] + (["--oversubscribe"] if nranks > 2 else []) + [
+        sys.executable, "-m", "pimpm"] + list(args)
+    return subprocess.run(cmd, cwd=cwd, env=dict(mpi_env(), **(env or {})), capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def history(out):
+    with open(os.path.join(out, "history.csv"), newline="") as f:
+        rows = list(csv.reader(f))
+    wall = rows[0].index("wall_time")
+    return rows[0], [r[:wall] + r[wall + 1:] for r in rows[1:]]
+
+
+def last_step(out):
+    with h5py.File(os.path.join(out, "results.h5"), "r") as f:
+        names = sorted(f["steps"], key=lambda s: int(f["steps"][s].attrs["step"]))
+        steps = [int(f["steps"][s].attrs["step"]) for s in names]
+        group = f["steps"][names[-1]]["particles"]
+        return steps, {k: group[k][...] for k in group}
+
+
+def bar_explicit():
+    with open(os.path.join(ROOT, "inputs", "bar_tension_explicit.yaml")) as f:
+        raw = yaml.safe_load(f)
+    raw["time"]["end_time"] = 0.2 * raw["time"]["end_time"]
+    return raw
+
+
+def billet_newmark():
+    raw = coarse_billet("newmark")
+    raw["grid"]["shape_functions"] = "linear"     # (GIMP's Newmark billet cuts steps; see test_billet.py)
+    raw["time"]["end_time"] = 0.1
+    return raw
+
+
+def upsetting():
+    raw = coarse_upsetting()
+    raw["time"].update(dt=5e-4, end_time=4e-3)
+    return raw
+
+
+CASES = {
+    "quasi-static billet": (lambda: coarse_billet("quasi_static"), 7),
+    "Newmark billet": (billet_newmark, 4),
+    "J2 upsetting": (upsetting, 4),
+    "explicit bar": (bar_explicit, 40),
+}
+
+
+@pytest.fixture(scope="module", params=list(CASES))
+def stopped_and_continued(request, tmp_path_factory):
+    """(name, the uninterrupted run's output, the stopped-and-continued
+    one's, the first run's process, the signal's step)."""
+    make, stop_step = CASES[request.param]
+    raw = make()
+    raw["output"] = {"directory": "out", "every": 3}
+    work = {}
+    for label in ("whole", "stopped"):
+        work[label] = tmp_path_factory.mktemp(label)
+        write_yaml(work[label] / "input.yaml", raw)
+    whole = pimpm(2, ["input.yaml"], work["whole"])
+    assert whole.returncode == 0, whole.stdout[-2000:] + whole.stderr[-2000:]
+    first = pimpm(2, ["input.yaml"], work["stopped"], env={"PIMPM_INJECT_SIGNAL": f"TERM:1:{stop_step}"})
+    second = pimpm(2, ["input.yaml", "--restart"], work["stopped"])
+    assert second.returncode == 0, second.stdout[-2000:] + second.stderr[-2000:]
+    return (request.param, work["whole"] / "out", work["stopped"] / "out", first, stop_step,
+            work["stopped"], raw)
+
+
+def test_a_signal_stops_every_rank_with_a_checkpoint(stopped_and_continued):
+    name, _, out, first, stop_step, _, _ = stopped_and_continued
+    assert first.returncode == 143, first.stdout[-2000:] + first.stderr[-2000:]
+    assert "Traceback" not in first.stderr
+    message = [line for line in first.stderr.splitlines() if "interrupted by SIGTERM" in line]
+    assert len(message) == 1, first.stderr      # one line, from rank 0
+    assert f"the state after step {stop_step - 1}" in message[0] and "--restart" in message[0]
+
+
+def test_the_continued_run_equals_the_uninterrupted_one_bit_for_bit(stopped_and_continued):
+    name, whole, continued, _, stop_step, _, _ = stopped_and_continued
+    header_a, rows_a = history(whole)
+    header_b, rows_b = history(continued)
+    assert header_a == header_b
+    assert [r[0] for r in rows_b] == [str(i) for i in range(1, len(rows_a) + 1)]   # no step twice or missing
+    assert rows_b == rows_a
+    steps_a, particles_a = last_step(whole)
+    steps_b, particles_b = last_step(continued)
+    assert steps_a == steps_b                       # results.h5: the same output steps
+    for field, values in particles_a.items():
+        assert np.array_equal(values, particles_b[field]), field
+    with open(os.path.join(continued, "particles.xdmf")) as f:
+        xdmf = f.read()
+    assert all(f"/steps/{s:06d}/" in xdmf for s in steps_a)
+
+
+@pytest.mark.parametrize("ranks", [1, 3])
+def test_a_restart_on_other_ranks_agrees_to_1e8(stopped_and_continued, ranks, tmp_path):
+    name, whole, _, _, stop_step, stopped_dir, raw = stopped_and_continued
+    if name == "Newmark billet" and ranks == 3:
+        pytest.skip("covered by 1 rank; keeps the suite short")
+    work = tmp_path / "again"
+    work.mkdir()
+    write_yaml(work / "input.yaml", raw)
+    first = pimpm(2, ["input.yaml"], work, env={"PIMPM_INJECT_SIGNAL": f"TERM:0:{stop_step}"})
+    assert first.returncode == 143, first.stderr[-2000:]
+    second = pimpm(ranks, ["input.yaml", "--restart"], work)
+    assert second.returncode == 0, second.stdout[-2000:] + second.stderr[-2000:]
+    _, particles_a = last_step(whole)
+    _, particles_b = last_step(work / "out")
+    order_a, order_b = np.argsort(particles_a["id"]), np.argsort(particles_b["id"])
+    scale = np.max(np.abs(particles_a["position"]))
+    assert np.max(np.abs(particles_a["position"][order_a] - particles_b["position"][order_b])) < 1e-8 * scale
+    header, rows_a = history(whole)
+    _, rows_b = history(work / "out")
+    forces = [i for i, h in enumerate(header) if "_force_" in h]
+    for i in forces:
+        a, b = float(rows_a[-1][i]), float(rows_b[-1][i])
+        assert abs(a - b) <= 1e-8 * max(abs(a), 1e-300) + 1e-12, (header[i], a, b)
+
+
+def slow_billet(directory):
+    raw = coarse_billet("quasi_static")
+    raw["time"].update(dt=0.001, end_time=0.2)          # a few seconds of steps
+    raw["output"] = {"directory": "out", "every": 10}
+    write_yaml(os.path.join(directory, "input.yaml"), raw)
+
+
+def start(cmd, cwd):
+    return subprocess.Popen(cmd, cwd=cwd, env=mpi_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def history_lines(proc_dir):
+    path = os.path.join(proc_dir, "out", "history.csv")
+    if not os.path.exists(path):
+        return 0
+    with open(path) as f:
+        return sum(1 for _ in f)
+
+
+def wait_for_steps(proc_dir, steps=3, timeout=60):
+    """Wait until history.csv holds ``steps`` more rows than now."""
+    target = history_lines(proc_dir) + steps + (1 if not history_lines(proc_dir) else 0)
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if history_lines(proc_dir) >= target:
+            return
+        time.sleep(0.1)
+    raise AssertionError("the run did not get going")
+
+
+def test_sigterm_to_mpiexec_checkpoints_within_seconds(tmp_path):
+    """OpenMPI turns it into SIGTERM to the ranks a second later and kills
+    them about a second after that: the checkpoint must be there."""
+    slow_billet(tmp_path)
+    proc = start([MPIEXEC, "-n", "2", sys.executable, "-m", "pimpm", "input.yaml"], tmp_path)
+    wait_for_steps(tmp_path)
+    sent = time.time()
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=30)
+    assert time.time() - sent < 10
+    assert "interrupted by SIGTERM" in err, err[-2000:]
+    again = pimpm(2, ["input.yaml", "--restart"], tmp_path)
+    assert again.returncode == 0, again.stderr[-2000:]
+    _, rows = history(tmp_path / "out")
+    assert [r[0] for r in rows] == [str(i) for i in range(1, 201)]
+
+
+def test_sigint_to_one_rank_stops_all_with_130_and_a_second_one_at_once(tmp_path):
+    slow_billet(tmp_path)
+    proc = start([MPIEXEC, "-n", "2", sys.executable, "-m", "pimpm", "input.yaml"], tmp_path)
+    wait_for_steps(tmp_path)
+    ranks = subprocess.run(["pgrep", "-P", str(proc.pid), "-f", "pimpm input.yaml"],
+                           capture_output=True, text=True).stdout.split()
+    assert len(ranks) == 2
+    sent = time.time()
+    os.kill(int(ranks[-1]), signal.SIGINT)
+    out, err = proc.communicate(timeout=30)
+    assert time.time() - sent < 10
+    assert proc.returncode == 130, err[-2000:]
+    assert "interrupted by SIGINT" in err
+    assert os.path.exists(tmp_path / "out" / "checkpoint.h5")
+    # a second signal: the process stops at once, with the signal's status
+    solo = start([sys.executable, "-m", "pimpm", "input.yaml", "--restart"], tmp_path)
+    wait_for_steps(tmp_path)
+    solo.send_signal(signal.SIGINT)
+    solo.send_signal(signal.SIGINT)
+    solo.communicate(timeout=30)
+    assert solo.returncode == 130
+
+
+RESTART_REFUSALS = {
+    "no checkpoint": (lambda raw: None, ["no usable checkpoint.h5"]),
+    "changed material": (lambda raw: raw["materials"]["rubber"].update(shear_modulus=7.0e6),
+                         ["materials differs from the checkpointed run's"]),
+    "nothing left to do": (lambda raw: raw["time"].update(end_time=0.05),
+                           ["time.end_time = 0.05", "expected a time after the checkpoint's"]),
+}
+
+
+@pytest.mark.parametrize("name", list(RESTART_REFUSALS))
+def test_restarts_that_cannot_be_are_refused(name, tmp_path):
+    edit, wanted = RESTART_REFUSALS[name]
+    raw = coarse_billet("quasi_static")
+    raw["output"] = {"directory": "out"}
+    write_yaml(tmp_path / "input.yaml", raw)
+    if name != "no checkpoint":
+        stopped = pimpm(1, ["input.yaml"], tmp_path, env={"PIMPM_INJECT_SIGNAL": "TERM:0:8"})
+        assert stopped.returncode == 143, stopped.stderr[-2000:]
+    before = sorted(os.listdir(tmp_path / "out")) if (tmp_path / "out").exists() else []
+    edit(raw)
+    write_yaml(tmp_path / "input.yaml", raw)
+    proc = pimpm(1, ["input.yaml", "--restart"], tmp_path)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("pimpm: error:")]
+    assert len(errors) == 1 and all(w in errors[0] for w in wanted), proc.stderr
+    after = sorted(os.listdir(tmp_path / "out")) if (tmp_path / "out").exists() else []
+    assert after == before
