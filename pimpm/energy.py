@@ -22,33 +22,41 @@ def strain_energy(particles, material_groups, comm):
 
 
 class WorkAccount:
-    """External work done on the material so far: rigid bodies, force
-    (trapezoidal in time) times their prescribed velocity, and gravity,
-    sum_p m_p g . du_p."""
+    """External work done on the material so far: each rigid body's force
+    (trapezoidal in time) times its displacement over the step, and the
+    particle external forces (gravity and loads, trapezoidal in time) times
+    the particles' displacements. Also each rigid body's total displacement
+    (for the history and the force-displacement plots)."""
 
     def __init__(self, comm):
         self.comm = comm
         self.total = 0.0
         self.last_forces = {}          # body name -> force of the last step
+        self.displacements = {}        # body name -> displacement since the start
 
     def state(self):
         """What a checkpoint keeps (JSON-able)."""
-        return {"total": self.total, "last_forces": {k: [float(x) for x in v]
-                                                     for k, v in self.last_forces.items()}}
+        as_lists = lambda d: {k: [float(x) for x in v] for k, v in d.items()}
+        return {"total": self.total, "last_forces": as_lists(self.last_forces),
+                "displacements": as_lists(self.displacements)}
 
     def restore(self, state):
         self.total = float(state["total"])
         self.last_forces = {k: np.array(v, dtype=float) for k, v in state["last_forces"].items()}
+        self.displacements = {k: np.array(v, dtype=float)
+                              for k, v in state.get("displacements", {}).items()}
 
-    def add(self, forces, rigid_bodies, particles, displacement, gravity, dt):
-        """Add one step's work. Collective."""
+    def add(self, forces, increments, displacement, external_start, external_end):
+        """Add one step's work: ``forces`` and ``increments`` (rigid body name
+        -> force, displacement over the step), the particles' displacements
+        and their external forces at the start and the end of the step. Collective."""
         work = 0.0
-        for body in rigid_bodies:
-            previous = self.last_forces.get(body.name, np.zeros(len(body.velocity)))
-            work += 0.5 * float(np.dot(previous + forces[body.name], body.velocity)) * dt
-        if len(displacement) and np.any(gravity):
-            local = float(np.sum(particles["mass"] * (displacement @ gravity)))
-        else:
-            local = 0.0
+        for name, step in increments.items():
+            previous = self.last_forces.get(name, np.zeros(len(step)))
+            work += 0.5 * float(np.dot(previous + forces[name], step))
+            self.displacements[name] = self.displacements.get(name, np.zeros(len(step))) + step
+        local = 0.0
+        if len(displacement):
+            local = 0.5 * float(np.sum((external_start + external_end) * displacement))
         self.total += work + self.comm.allreduce(local, op=MPI.SUM)
         self.last_forces = {name: np.array(f) for name, f in forces.items()}

@@ -42,12 +42,12 @@ def _bounding_box(geometry):
     return c - r, c + r
 
 
-def seed_body(grid, geometry, particles_per_cell, body_index, id_offset):
+def seed_body(grid, geometry, particles_per_cell, body_index, id_offset, axisymmetric=False):
     """Seed particles of one body in the cells this rank owns.
 
-    Returns ``(x, volume0, half_size, id)``; the id is a function of the
-    global cell and sub-cell index only, so it does not depend on the number
-    of ranks.
+    Returns ``(x, volume0, half_size, id, surface)``; the id is a function of
+    the global cell and sub-cell index only, so it does not depend on the
+    number of ranks; ``surface``: see :func:`_surface`.
     """
     dim = grid.dim
     ppc = np.asarray(particles_per_cell, dtype=np.int64)
@@ -58,7 +58,8 @@ def seed_body(grid, geometry, particles_per_cell, body_index, id_offset):
     c_lo = np.maximum(c_lo, grid.owned_cell_start)
     c_hi = np.minimum(c_hi, grid.owned_cell_end)
     if np.any(c_hi <= c_lo):
-        return np.zeros((0, dim)), np.zeros(0), np.zeros((0, dim)), np.zeros(0, dtype=np.int64)
+        return (np.zeros((0, dim)), np.zeros(0), np.zeros((0, dim)), np.zeros(0, dtype=np.int64),
+                np.zeros((0, 2 * dim)))
     cell_axes = [np.arange(a, b) for a, b in zip(c_lo, c_hi)]
     cells = np.stack([m.ravel() for m in np.meshgrid(*cell_axes, indexing="ij")], axis=1)
     sub_axes = [np.arange(p) for p in ppc]
@@ -89,7 +90,47 @@ def seed_body(grid, geometry, particles_per_cell, body_index, id_offset):
     distance = _signed_distance_curved(x, geometry)
     keep = overlap if distance is None else overlap & (distance < 0.0)
     order = np.argsort(pid[keep], kind="stable")
-    return x[keep][order], volume0[keep][order], half[keep][order], pid[keep][order]
+    lattice = (cells[:, None, :] * ppc + subs[None, :, :]).reshape(-1, dim)[keep][order]
+    surface = _surface(grid, geometry, ppc, lattice, clip_lo[keep][order], clip_hi[keep][order],
+                       axisymmetric)
+    return x[keep][order], volume0[keep][order], half[keep][order], pid[keep][order], surface
+
+
+def _member(grid, geometry, ppc, lattice):
+    """Does the sub-cell at global lattice coordinates ``lattice`` (n, dim)
+    hold a particle of the body? (the test seed_body applies)"""
+    inside_grid = np.all((lattice >= 0) & (lattice < grid.cells * ppc), axis=1)
+    sub_lo = grid.lower + lattice / ppc * grid.spacing
+    sub_hi = grid.lower + (lattice + 1) / ppc * grid.spacing
+    lo, hi = _bounding_box(geometry)
+    box_lo, box_hi = (lo, hi) if geometry["type"] != "ball" else (-np.inf, np.inf)
+    clip_lo, clip_hi = np.maximum(sub_lo, box_lo), np.minimum(sub_hi, box_hi)
+    overlap = np.all(clip_hi - clip_lo > 1e-9 * grid.spacing / ppc, axis=1)
+    distance = _signed_distance_curved(0.5 * (clip_lo + clip_hi), geometry)
+    return inside_grid & (overlap if distance is None else overlap & (distance < 0.0))
+
+
+def _surface(grid, geometry, ppc, lattice, clip_lo, clip_hi, axisymmetric):
+    """(n, 2 dim): the area of each particle's domain face that lies on the
+    body's surface, by outward normal (columns x-, x+, y-, y+(, z-, z+));
+    a face is on the surface when the neighbouring sub-cell holds no
+    particle. Areas per unit thickness in 2D; of revolution in axisymmetry."""
+    n, dim = lattice.shape
+    surface = np.zeros((n, 2 * dim))
+    extent = clip_hi - clip_lo
+    for d in range(dim):
+        others = [e for e in range(dim) if e != d]
+        for side, face in ((-1, clip_lo[:, d]), (1, clip_hi[:, d])):
+            step = np.zeros(dim, dtype=np.int64)
+            step[d] = side
+            exposed = ~_member(grid, geometry, ppc, lattice + step)
+            if axisymmetric:          # x is the radius: 2 pi r_face h, or an annulus
+                area = (2.0 * np.pi * face * extent[:, 1] if d == 0
+                        else np.pi * (clip_hi[:, 0] ** 2 - clip_lo[:, 0] ** 2))
+            else:
+                area = np.prod(extent[:, others], axis=1)
+            surface[:, 2 * d + (side > 0)] = np.where(exposed, area, 0.0)
+    return surface
 
 
 def seed_bodies(config, grid, kinematics, densities, history_fields):
@@ -98,12 +139,13 @@ def seed_bodies(config, grid, kinematics, densities, history_fields):
     bodies only); ``history_fields``: name -> per-particle shape of the
     materials' history variables (identity-initialised where a tensor)."""
     dim = grid.dim
-    mat = {k: [] for k in ("x", "volume0", "id", "body", "v", "density", "half_size")}
+    mat = {k: [] for k in ("x", "volume0", "id", "body", "v", "density", "half_size", "surface")}
     rig = {k: [] for k in ("x", "id", "body", "v", "half_size")}
     id_offset = 0
     for i, b in enumerate(config["bodies"]):
         ppc = b["particles_per_cell"]
-        x, vol, half, pid = seed_body(grid, b["geometry"], ppc, i, id_offset)
+        x, vol, half, pid, surface = seed_body(grid, b["geometry"], ppc, i, id_offset,
+                                               kinematics.name == "axisymmetric")
         id_offset += int(np.prod(grid.cells)) * int(np.prod(ppc))
         target = rig if b.get("rigid", False) else mat
         target["x"].append(x)
@@ -114,6 +156,7 @@ def seed_bodies(config, grid, kinematics, densities, history_fields):
         if not b.get("rigid", False):
             target["volume0"].append(vol)
             target["density"].append(np.full(len(x), densities[i]))
+            target["surface"].append(surface)
     cat = lambda lst, shape, dt=float: (np.concatenate(lst) if lst else np.zeros(shape, dtype=dt))
     x = cat(mat["x"], (0, dim))
     volume0 = kinematics.reference_volume(x, cat(mat["volume0"], (0,)))
@@ -126,6 +169,7 @@ def seed_bodies(config, grid, kinematics, densities, history_fields):
         "volume0": volume0, "mass": volume0 * cat(mat["density"], (0,)),
         "half_size": cat(mat["half_size"], (0, dim)),
         "body": cat(mat["body"], (0,), np.int64), "id": cat(mat["id"], (0,), np.int64),
+        "surface": cat(mat["surface"], (0, 2 * dim)),
     })
     xr = cat(rig["x"], (0, dim))
     rigid = ParticleSet({

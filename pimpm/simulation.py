@@ -18,12 +18,14 @@ from .grid import Grid
 from .implicit import StepProblem, StepState, TangentPattern, constraint_scale, residual_scale
 from .integrators import make_integrator
 from .integrators.explicit import stable_time_step
+from .functions import lookup, make_functions
 from .kernels import pattern as kernel_pattern
 from .kernels import transfer as transfer_kernels
 from .kinematics import make_kinematics
 from .materials import make_material
 from .materials import tensors
 from .materials.update import MaterialTable
+from .loads import make_loads, particle_forces
 from .options import pimpm_option
 from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
 from .particles import ParticleSet, migrate, sort_by_cell
@@ -57,10 +59,13 @@ class Simulation:
         self.integrator = make_integrator(config["time"])
         self.material_names = list(config["materials"])
         self.materials = [make_material(config["materials"][k]) for k in self.material_names]
+        self.functions = make_functions(config)
         self.gravity = np.asarray(config["time"].get("gravity", [0.0] * dim), dtype=float)
+        self.gravity_function = lookup(self.functions, config["time"].get("gravity_function"))
         self.body_names = [b["name"] for b in config["bodies"]]
-        self.rigid_bodies = [bc.RigidBody.from_config(i, b, dim)
+        self.rigid_bodies = [bc.RigidBody.from_config(i, b, dim, self.functions)
                              for i, b in enumerate(config["bodies"]) if b.get("rigid", False)]
+        self.loads = make_loads(config, self.functions, self.body_names)
         self.body_material = {i: self.material_names.index(b["material"])
                               for i, b in enumerate(config["bodies"]) if not b.get("rigid", False)}
         self.work = energy.WorkAccount(comm)     # work of rigid bodies and gravity so far
@@ -78,6 +83,8 @@ class Simulation:
                                  f"bodies that do not overlap (the mass of the overlap would count twice)")
             self.time = 0.0
             self.step_index = 0
+            for load in self.loads:       # each particle's share, fixed on the reference configuration
+                self.particles[load.field] = load.share(self.particles, comm)
             self.count0 = self.particles.global_count(comm)
             self.rigid_count0 = self.rigid.global_count(comm)
             self.mass0 = float(self.particles.global_sum(comm, "mass"))
@@ -116,6 +123,8 @@ class Simulation:
                 sort_by_cell(pset, self.grid)
             fields[name] = pset
         self.particles, self.rigid = fields["particles"], fields["rigid"]
+        for load in self.loads:
+            load.total_share = self.comm.allreduce(float(np.sum(self.particles[load.field])))
         self.time = checkpoint.time
         self.step_index = checkpoint.step
         self.work.restore(checkpoint.work)
@@ -213,10 +222,11 @@ class Simulation:
         return TangentPattern(width, indptr, indices, slots,
                               scalar_indptr.astype(PETSc.IntType), scalar_indices.astype(PETSc.IntType))
 
-    def nodal_state(self, node_index, S):
-        """G&W step 1 (eq. 2-4): lumped mass, v_g(t), a_g(t) and Fext_g on
-        owned dofs (one scatter of m, m v and m a; gravity is uniform, so
-        Fext_g = m_g g)."""
+    def nodal_state(self, node_index, S, time=None):
+        """G&W step 1 (eq. 2-4): lumped mass, v_g(t), a_g(t) and Fext_g at
+        ``time`` (the end of the step) on owned dofs: one scatter of m, m v
+        and m a; gravity is uniform, so its force is m_g g f(time); loads on
+        particles are scattered with the shape functions."""
         p, grid = self.particles, self.grid
         dim = self.dim
         m = p["mass"]
@@ -226,25 +236,51 @@ class Simulation:
         mass = grid.sum_scalar_to_owned(moments[:, 0])
         momentum = grid.sum_to_owned(moments[:, 1:1 + dim])
         mass_acc = grid.sum_to_owned(moments[:, 1 + dim:])
-        fext = mass * np.tile(self.gravity, len(mass) // dim)
+        fext = self.nodal_external_force(node_index, S, mass, self.time if time is None else time)
         has_mass = mass > self.mass_floor
         safe = np.where(has_mass, mass, 1.0)
         velocity = np.where(has_mass, momentum / safe, 0.0)
         acceleration = np.where(has_mass, mass_acc / safe, 0.0)
         return mass, velocity, acceleration, fext
 
+    def nodal_external_force(self, node_index, S, mass, time):
+        """Fext_g at ``time`` on owned dofs: gravity (m_g g f(time)) and the
+        loads on particles. Collective."""
+        fext = mass * np.tile(self.gravity * self.gravity_function(time), len(mass) // self.dim)
+        forces = particle_forces(self.loads, self.particles, time, self.dim)
+        if forces is not None:
+            fext = fext + self.grid.sum_to_owned(particle_to_grid(node_index, S, forces,
+                                                                  self.grid.n_local_nodes))
+        return fext
+
+    def particle_external_force(self, time):
+        """The force on every material particle at ``time``: gravity and loads, (n, dim)."""
+        force = self.particles["mass"][:, None] * (self.gravity * self.gravity_function(time))
+        loads = particle_forces(self.loads, self.particles, time, self.dim)
+        return force if loads is None else force + loads
+
+    def rigid_increments(self, dt):
+        """Each rigid body's displacement over the step from self.time (name
+        -> vector), and every rigid particle's (n_rigid, dim)."""
+        increments = {b.name: b.increment(self.time, dt) for b in self.rigid_bodies}
+        per_body = np.zeros((len(self.body_names), self.dim))
+        for b in self.rigid_bodies:
+            per_body[b.index] = increments[b.name]
+        return increments, per_body[self.rigid["body"]]
+
     # ----------------------------------------------------------------- one step
     def prepare_step(self, dt):
         """Steps 1-2: P2G and the Newton state on the reset grid."""
         p, grid = self.particles, self.grid
         node_index, S, G = self.footprint()
-        mass, velocity, acceleration, fext = self.nodal_state(node_index, S)
+        mass, velocity, acceleration, fext = self.nodal_state(node_index, S, self.time + dt)
         # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
         weight = np.empty(grid.n_local_nodes)
         transfer_kernels.gradient_weight(node_index, G, grid.spacing, p["mass"], weight)
         stiffness_weight = grid.sum_scalar_to_owned(weight)
         cons = bc.build_constraints(grid, self.shape, self.rigid, self.rigid_bodies,
-                                    self.boundary, mass, dt, self.mass_floor, stiffness_weight)
+                                    self.boundary, mass, dt, self.mass_floor, stiffness_weight,
+                                    self.time, self.functions)
         groups = self.material_groups()
         materials = MaterialTable(groups, len(p))
         history = self.particle_history()
@@ -266,7 +302,8 @@ class Simulation:
             state.group_nodes = node_index[order][starts]
         if self.integrator.needs_previous_force:     # HHT: Fint(t) - Fext(t) on the reset grid
             self.problem.begin(state)
-            state.previous_force = self.problem.internal_force(p["stress"], None) - fext
+            fext_now = self.nodal_external_force(node_index, S, mass, self.time)
+            state.previous_force = self.problem.internal_force(p["stress"], None) - fext_now
         return state, cons
 
     def initial_guess(self, state):
@@ -326,7 +363,8 @@ class Simulation:
         u_p = grid_to_particle(state.node_index, state.S, u_local)
         a_p = grid_to_particle(state.node_index, state.S, a_local)
         new_x = p["x"] + u_p
-        self.check_stays_on_grid(new_x, self.rigid["x"] + self.rigid["v"] * dt, dt)
+        increments, rigid_moves = self.rigid_increments(dt)
+        self.check_stays_on_grid(new_x, self.rigid["x"] + rigid_moves, dt)
         limit = self.config["time"]["max_particle_displacement"]
         if limit is not None:
             moved = np.max(np.abs(u_p) / grid.spacing) if len(u_p) else 0.0
@@ -335,7 +373,8 @@ class Simulation:
                 raise StepFailed(f"a particle would move {moved:.3g} cells at step "
                                  f"{self.step_index + 1} (t = {self.time + dt:.6g}, dt = {dt:.6g}); "
                                  f"time.max_particle_displacement is {limit:g}")
-        self.work.add(forces, self.rigid_bodies, p, u_p, self.gravity, dt)
+        self.work.add(forces, increments, u_p, self.particle_external_force(self.time),
+                      self.particle_external_force(self.time + dt))
         p["x"] = new_x
         self.integrator.update_particles(p, u_p, a_p, dt)        # G&W step 7
         p["F"] = F
@@ -343,7 +382,7 @@ class Simulation:
         committed = state.committed_history(state.extra["history_packed"])
         for name, values in committed.items():                   # commit the history
             p["h_" + name] = values
-        self.rigid["x"] = self.rigid["x"] + self.rigid["v"] * dt
+        self.rigid["x"] = self.rigid["x"] + rigid_moves
         return forces, v_new, a_new
 
     def check_stays_on_grid(self, new_x, new_rigid_x, dt):

@@ -84,13 +84,15 @@ def test_base_config_normalizes_with_defaults():
     billet, platen = cfg["bodies"]
     assert billet == {"name": "billet", "material": "rubber", "rigid": False,
                       "geometry": {"type": "box", "lower": [0.0, 0.0], "upper": [20.0, 20.0]},
-                      "particles_per_cell": [4, 4], "velocity": [0.0, 0.0], "constrain": None}
+                      "particles_per_cell": [4, 4], "velocity": [0.0, 0.0], "function": None,
+                      "constrain": None}
     assert platen == {"name": "platen", "material": None, "rigid": True,
                       "geometry": {"type": "box", "lower": [0.0, 20.0], "upper": [28.0, 20.5]},
-                      "particles_per_cell": [2, 2], "velocity": [0.0, -50.0],
+                      "particles_per_cell": [2, 2], "velocity": [0.0, -50.0], "function": None,
                       "constrain": ["x", "y"]}
     assert cfg["time"] == {"integrator": "quasi_static", "dt": 0.005, "end_time": 0.2,
-                           "gravity": [0.0, 0.0], "dt_initial": 0.005, "ramp_factor": 1.2,
+                           "gravity": [0.0, 0.0], "gravity_function": None, "dt_initial": 0.005,
+                           "ramp_factor": 1.2,
                            "max_cuts": 4, "easy_newton_iterations": 6,
                            "max_particle_displacement": None, "cfl": 0.5, "stress_update": "musl",
                            "formulation": "velocity"}
@@ -99,8 +101,9 @@ def test_base_config_normalizes_with_defaults():
                                              "energy_tolerance": 1e-12},
                              "petsc": {}}
     assert cfg["output"] == {"directory": "pimpm_output", "every": 1, "checkpoint_every": 0}
-    assert list(cfg) == ["title", "dim", "grid", "kinematics", "materials", "bodies", "time",
-                         "solver", "output"]
+    assert list(cfg) == ["title", "dim", "functions", "grid", "kinematics", "materials", "bodies",
+                         "loads", "time", "solver", "output"]
+    assert cfg["functions"] == {} and cfg["loads"] == []
 
 
 def test_types_are_normalized():

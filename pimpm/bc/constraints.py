@@ -27,7 +27,7 @@ class Constraints:
 
 
 def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass, dt,
-                      mass_floor=0.0, stiffness_weight=None):
+                      mass_floor=0.0, stiffness_weight=None, time=0.0, functions=None):
     """Prescribed dofs and values for one step.
 
     rigid_bodies: list of :class:`pimpm.bc.rigid.RigidBody`.
@@ -40,6 +40,8 @@ def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass
     cell face gives the node across the face zero mass but a full
     gradient, so that node still has stiffness and must stay free (fixing
     it would strain the particle).
+    time: the start of the step (rigid bodies and faces moving with a
+    function of time move by its integral over the step).
     Order of precedence: grid faces > rigid bodies > massless nodes.
     """
     n = len(mass)
@@ -48,15 +50,15 @@ def build_constraints(grid, shape, rigid_particles, rigid_bodies, boundary, mass
     body_dofs = {}
     for body in rigid_bodies:
         touched = body.touched_dofs(grid, shape, rigid_particles)
-        u = np.tile(body.increment(dt), n // grid.dim)
+        u = np.tile(body.increment(time, dt), n // grid.dim)
         value[touched] = u[touched]
         fixed |= touched
         for mask in body_dofs.values():   # a node shared by two bodies goes to the later one
             mask[touched] = False
         body_dofs[body.name] = touched
-    faces = face_constraints(grid, boundary)
+    faces, face_values = face_constraints(grid, boundary, time, dt, functions)
     fixed[faces] = True
-    value[faces] = 0.0
+    value[faces] = face_values
     for mask in body_dofs.values():
         mask[faces] = False
     massless = (mass <= mass_floor) & ~fixed

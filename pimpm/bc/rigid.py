@@ -1,11 +1,15 @@
-"""Rigid bodies: sets of particles moving with a prescribed velocity; every
-grid node a body's particles touch (nonzero shape-function weight) gets
-that velocity for the constrained components (contact through shared
-nodes, as in Guilkey & Weiss 5.1 and Sulsky & Kaul 3.1.1)."""
+"""Rigid bodies: sets of particles moving with a prescribed velocity, times
+a function of time (approach, hold, retract, cycle); every grid node a
+body's particles touch (nonzero shape-function weight) gets the body's
+displacement over the step for the constrained components (contact through
+shared nodes, as in Guilkey & Weiss 5.1 and Sulsky & Kaul 3.1.1). The
+displacement over a step is the velocity times the exact integral of the
+function over it."""
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..functions import ONE, lookup
 from ..transfer import scatter
 
 
@@ -15,11 +19,13 @@ class RigidBody:
     name: str
     velocity: np.ndarray       # (dim,)
     axes: list                 # constrained components
+    function: object = ONE     # the velocity's scale, a function of time (pimpm.functions)
 
     @classmethod
-    def from_config(cls, index, body, dim):
+    def from_config(cls, index, body, dim, functions=None):
         axes = ["xyz".index(a) for a in body.get("constrain", "xyz"[:dim])]
-        return cls(index, body["name"], np.asarray(body["velocity"], float), axes)
+        return cls(index, body["name"], np.asarray(body["velocity"], float), axes,
+                   lookup(functions or {}, body.get("function")))
 
     def touched_dofs(self, grid, shape, rigid_particles):
         """Owned dof mask of the nodes this body's particles touch, for its
@@ -36,6 +42,6 @@ class RigidBody:
                 counts[:, axis] = node_counts
         return grid.sum_to_owned(counts) > 0.0
 
-    def increment(self, dt):
-        """Displacement of the body over a step."""
-        return self.velocity * dt
+    def increment(self, time, dt):
+        """Displacement of the body over the step from ``time`` to ``time + dt``."""
+        return self.velocity * self.function.integral(time, time + dt)

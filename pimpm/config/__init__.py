@@ -31,6 +31,8 @@ import os
 
 from .bodies import _validate_bodies, _validate_materials
 from .derived import check_derived
+from .functions import _validate_functions
+from .loads import _validate_loads
 from .checks import _MISSING, ROOT, ConfigError, _enum, _fail, _Section
 from .schema import KINEMATICS, TOP_KEYS
 from .sections import _validate_grid, _validate_output, _validate_solver, _validate_time
@@ -55,8 +57,9 @@ def validate(raw, source_name=None):
     if not isinstance(title, str):
         _fail("title", title, "a string")
 
+    functions = _validate_functions(top.optional("functions"))
     grid, dim = _validate_grid(top.required("grid", "a mapping with lower, upper, cells"),
-                               "grid")
+                               "grid", functions)
 
     kin = top.optional("kinematics")
     if kin is _MISSING:
@@ -68,14 +71,16 @@ def validate(raw, source_name=None):
         top.required("materials", "a non-empty mapping of material name -> material spec"),
         "materials")
     bodies = _validate_bodies(top.required("bodies", "a non-empty list of bodies"),
-                              "bodies", dim, materials, grid)
-    time = _validate_time(top.required("time", "a mapping with dt and end_time"), "time", dim)
+                              "bodies", dim, materials, grid, functions)
+    loads = _validate_loads(top.optional("loads"), "loads", dim, bodies, functions, grid)
+    time = _validate_time(top.required("time", "a mapping with dt and end_time"), "time", dim,
+                          functions)
     solver = _validate_solver(top.optional("solver"), "solver")
     output = _validate_output(top.optional("output"), "output", source_name)
 
-    config = {"title": title, "dim": dim, "grid": grid, "kinematics": kin,
-              "materials": materials, "bodies": bodies, "time": time, "solver": solver,
-              "output": output}
+    config = {"title": title, "dim": dim, "functions": functions, "grid": grid, "kinematics": kin,
+              "materials": materials, "bodies": bodies, "loads": loads, "time": time,
+              "solver": solver, "output": output}
     check_derived(config)
     return config
 

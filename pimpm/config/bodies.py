@@ -5,6 +5,7 @@ from collections.abc import Mapping
 from ..materials import MODELS, REQUIRED, elastic_moduli
 from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _fail,
     _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _positive, _string)
+from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
     ELASTIC_KEYS, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
     MODEL_PARAMETER_KEYS)
@@ -124,7 +125,7 @@ def _check_inside_grid(geom, path, grid, dim):
                       f"axis {axis}) to lie within {within}")
 
 
-def _validate_body(value, path, dim, materials, grid):
+def _validate_body(value, path, dim, materials, grid, functions=None):
     sec = _Section(value, path, BODY_KEYS)
     name = _string(sec.required("name", "a non-empty string"), sec.sub("name"))
 
@@ -162,6 +163,10 @@ def _validate_body(value, path, dim, materials, grid):
     velocity = sec.optional("velocity")
     velocity = [0.0] * dim if velocity is _MISSING else \
         _float_vector(velocity, sec.sub("velocity"), dim)
+    function = _function_ref(sec.optional("function"), sec.sub("function"), functions or {})
+    if function is not None and not rigid:
+        _fail(sec.sub("function"), function, "a function only on a rigid body (a deformable body's "
+                                             "velocity is its initial velocity)")
 
     axes = AXES[:dim]
     con_path = sec.sub("constrain")
@@ -188,16 +193,17 @@ def _validate_body(value, path, dim, materials, grid):
             constrain = [a for a in axes if a in seen]
 
     return {"name": name, "material": material, "rigid": rigid, "geometry": geometry,
-            "particles_per_cell": ppc, "velocity": velocity, "constrain": constrain}
+            "particles_per_cell": ppc, "velocity": velocity, "function": function,
+            "constrain": constrain}
 
 
-def _validate_bodies(value, path, dim, materials, grid):
+def _validate_bodies(value, path, dim, materials, grid, functions=None):
     if not isinstance(value, (list, tuple)) or not value:
         _fail(path, value, "a non-empty list of bodies")
     bodies, first = [], {}
     for i, spec in enumerate(value):
         bpath = f"{path}[{i}]"
-        body = _validate_body(spec, bpath, dim, materials, grid)
+        body = _validate_body(spec, bpath, dim, materials, grid, functions)
         if body["name"] in first:
             _fail(f"{bpath}.name", body["name"],
                   f"a unique body name (already used by {path}[{first[body['name']]}])")

@@ -23,17 +23,18 @@ DEFAULT_PARTICLES_PER_CELL = 2
 DEFAULT_OUTPUT_DIRECTORY = "pimpm_output"
 BBOX_RELATIVE_TOLERANCE = 1e-12
 
-TOP_KEYS = ("title", "grid", "kinematics", "materials", "bodies", "time", "solver", "output")
+TOP_KEYS = ("title", "functions", "grid", "kinematics", "materials", "bodies", "loads", "time",
+            "solver", "output")
 GRID_KEYS = ("lower", "upper", "cells", "shape_functions", "boundary")
 ELASTIC_KEYS = ("shear_modulus", "bulk_modulus", "youngs_modulus", "poisson_ratio")
 #: parameters of all models, in registry order (each model declares its own)
 MODEL_PARAMETER_KEYS = tuple(dict.fromkeys(k for m in MODELS.values() for k in m.parameters))
 MATERIAL_KEYS = ("model", "density") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
-             "velocity", "constrain")
+             "velocity", "function", "constrain")
 GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius"),
                  "cylinder": ("type", "lower", "upper", "axis", "center", "radius")}
-TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
+TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "gravity_function", "dt_initial", "ramp_factor",
              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
              "stress_update", "formulation") + tuple(
     dict.fromkeys(k for cls in _INTEGRATOR_REGISTRY.values() for k in cls.parameters))

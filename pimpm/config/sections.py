@@ -1,6 +1,7 @@
 """Validation of the grid, time, solver and output sections."""
 from collections.abc import Mapping
 
+from .functions import _function_ref
 from .checks import (_MISSING, _Section, _bool, _enum, _fail, _float, _float_vector, _fmt, _int,
     _is_int, _is_number, _join, _optional_mapping, _positive, _string)
 from ..integrators import INTEGRATORS as _INTEGRATORS
@@ -9,7 +10,30 @@ from .schema import (AXES, BOUNDARY_ALIASES, BOUNDARY_TYPES, CONVERGENCE_KEYS, C
     SOLVER_KEYS, SOLVER_PRESETS, STRESS_UPDATES, TIME_KEYS)
 
 
-def _validate_grid(value, path):
+def _validate_face(b, path, dim, functions):
+    """A grid face's condition: a type name, or a prescribed velocity
+    {velocity: [vx, vy(, vz)] or {axis: v, ...}, function: NAME}."""
+    if not isinstance(b, Mapping):
+        b = _enum(b, path, BOUNDARY_TYPES, " (or a mapping with a velocity)")
+        return BOUNDARY_ALIASES.get(b, b)
+    sec = _Section(b, path, ("velocity", "function"))
+    v = sec.required("velocity", f"a list of {dim} numbers or a mapping axis -> number")
+    vpath = sec.sub("velocity")
+    if isinstance(v, Mapping):
+        if not v:
+            _fail(vpath, v, f"a list of {dim} numbers or a non-empty mapping axis -> number")
+        components = {}
+        for axis, value in v.items():
+            if axis not in AXES[:dim]:
+                _fail(vpath, v, f"axes among {', '.join(AXES[:dim])}")
+            components[axis] = _float(value, _join(vpath, axis))
+    else:
+        components = dict(zip(AXES, _float_vector(v, vpath, dim)))
+    return {"velocity": components, "function": _function_ref(sec.optional("function"),
+                                                                 sec.sub("function"), functions)}
+
+
+def _validate_grid(value, path, functions=None):
     sec = _Section(value, path, GRID_KEYS)
     lower = _float_vector(sec.required("lower", "a list of 2 or 3 numbers"), sec.sub("lower"), None)
     dim = len(lower)
@@ -33,17 +57,14 @@ def _validate_grid(value, path):
     boundary = {}
     for face in faces:
         b = bsec.optional(face)
-        if b is _MISSING:
-            boundary[face] = "free"
-        else:
-            b = _enum(b, bsec.sub(face), BOUNDARY_TYPES)
-            boundary[face] = BOUNDARY_ALIASES.get(b, b)
+        boundary[face] = "free" if b is _MISSING else _validate_face(b, bsec.sub(face), dim,
+                                                                       functions or {})
     grid = {"lower": lower, "upper": upper, "cells": cells, "shape_functions": shape,
             "boundary": boundary}
     return grid, dim
 
 
-def _validate_time(value, path, dim):
+def _validate_time(value, path, dim, functions=None):
     sec = _Section(value, path, TIME_KEYS)
     integ = sec.optional("integrator")
     integ = "newmark" if integ is _MISSING else _enum(integ, sec.sub("integrator"), INTEGRATORS)
@@ -80,6 +101,8 @@ def _validate_time(value, path, dim):
     gravity = sec.optional("gravity")
     gravity = [0.0] * dim if gravity is _MISSING else \
         _float_vector(gravity, sec.sub("gravity"), dim)
+    gravity_function = _function_ref(sec.optional("gravity_function"), sec.sub("gravity_function"),
+                                     functions or {})
     dt_initial = sec.optional("dt_initial")
     dt_initial = dt if dt_initial is _MISSING else _positive(dt_initial, sec.sub("dt_initial"))
     if dt is not None and dt_initial > dt:
@@ -95,6 +118,7 @@ def _validate_time(value, path, dim):
     limit = sec.optional("max_particle_displacement")
     limit = None if limit is _MISSING else _positive(limit, sec.sub("max_particle_displacement"))
     out = {"integrator": integ, "dt": dt, "end_time": end_time, "gravity": gravity,
+           "gravity_function": gravity_function,
            "dt_initial": dt_initial, "ramp_factor": ramp, "max_cuts": cuts,
            "easy_newton_iterations": easy, "max_particle_displacement": limit,
            "cfl": cfl, "stress_update": update, "formulation": formulation}

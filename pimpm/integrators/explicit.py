@@ -79,9 +79,10 @@ class Explicit:
         comm, grid, p, dim = sim.comm, sim.grid, sim.particles, sim.dim
         with log_stage(sim.stages["P2G"]):
             node_index, S, G = sim.footprint()
-            mass, velocity, _, fext = sim.nodal_state(node_index, S)              # eq. 2-4
+            mass, velocity, _, fext = sim.nodal_state(node_index, S, sim.time)   # eq. 2-4
             cons = bc.build_constraints(grid, sim.shape, sim.rigid, sim.rigid_bodies,
-                                        sim.boundary, mass, dt, sim.mass_floor)
+                                        sim.boundary, mass, dt, sim.mass_floor,
+                                        time=sim.time, functions=sim.functions)
             velocity = np.where(cons.fixed, cons.value / dt, velocity)
             update = sim.config["time"]["stress_update"]
             saved = {k: p[k] for k in ["F", "stress"] + ["h_" + n for n in sim.history_fields()]}
@@ -104,7 +105,8 @@ class Explicit:
             v_local = grid.owned_to_local(v_new)
             new_v = p["v"] + dt * grid_to_particle(node_index, S, a_local)             # eq. 9
             new_x = p["x"] + dt * grid_to_particle(node_index, S, v_local)             # eq. 10
-            new_rigid_x = sim.rigid["x"] + sim.rigid["v"] * dt
+            increments, rigid_moves = sim.rigid_increments(dt)
+            new_rigid_x = sim.rigid["x"] + rigid_moves
             try:
                 sim.check_stays_on_grid(new_x, new_rigid_x, dt)
             except StepFailed:
@@ -122,7 +124,8 @@ class Explicit:
                 remapped = np.where(has_mass, momentum / np.where(has_mass, mass, 1.0), 0.0)
                 remapped = np.where(cons.fixed, cons.value / dt, remapped)
                 self._stress(sim, node_index, S, G, grid.owned_to_local(remapped), dt, saved)
-            sim.work.add(forces, sim.rigid_bodies, p, new_x - p["x"], sim.gravity, dt)
+            sim.work.add(forces, increments, new_x - p["x"], sim.particle_external_force(sim.time),
+                         sim.particle_external_force(sim.time))
             p["v"], p["x"] = new_v, new_x
             p["a"] = np.zeros_like(new_v)
             sim.rigid["x"] = new_rigid_x
