@@ -113,7 +113,8 @@ class HistoryObserver(Observer):
 
     def __init__(self, sim, path, restart=False):
         self.history = History(sim.comm, path, [b.name for b in sim.rigid_bodies], sim.dim,
-                               continue_after=sim.step_index if restart else None)
+                               continue_after=sim.step_index if restart else None,
+                               load_names=[load.name for load in sim.loads])
 
     def step(self, analysis, info):
         self.history.write(info)

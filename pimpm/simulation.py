@@ -25,6 +25,7 @@ from .kinematics import make_kinematics
 from .materials import make_material
 from .materials import tensors
 from .materials.update import MaterialTable
+from .loads import displacement as load_displacement
 from .loads import make_loads, particle_forces
 from .options import pimpm_option
 from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
@@ -406,6 +407,12 @@ class Simulation:
         info.update(solve_info)
         if explicit:
             info["explicit"] = True
+        zero = np.zeros(self.dim)
+        info.update(displacements={b.name: self.work.displacements.get(b.name, zero)
+                                   for b in self.rigid_bodies},
+                    load_forces={load.name: load.resultant(self.time) for load in self.loads},
+                    load_displacements={load.name: load_displacement(load, self.particles, self.comm)
+                                        for load in self.loads})
         info.update(forces=forces, external_work=self.work.total,
                     kinetic_energy=self.kinetic_energy(), strain_energy=self.strain_energy(),
                     particle_imbalance=self.step_imbalance,

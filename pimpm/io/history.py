@@ -10,9 +10,10 @@ class History:
     """``continue_after``: continue an existing file (a restart), keeping its
     rows up to that step and dropping those after it."""
 
-    def __init__(self, comm, path, rigid_names, dim, continue_after=None):
+    def __init__(self, comm, path, rigid_names, dim, continue_after=None, load_names=()):
         self.comm = comm
         self.rigid_names = rigid_names
+        self.load_names = list(load_names)
         self.dim = dim
         self.columns = ["step", "time", "dt", "newton_iterations", "linear_iterations",
                         "backtracks", "linear_fallbacks", "step_cuts",
@@ -20,6 +21,10 @@ class History:
                         "total_energy", "external_work"]
         for name in rigid_names:
             self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
+            self.columns += [f"{name}_displacement_{a}" for a in "xyz"[:dim]]
+        for name in self.load_names:
+            self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
+            self.columns += [f"{name}_displacement_{a}" for a in "xyz"[:dim]]
         self.columns += ["particle_imbalance", "wall_time"]
         self.file = None
         if comm.rank == 0:
@@ -53,6 +58,10 @@ class History:
                repr(info["kinetic_energy"] + info["strain_energy"]), repr(info["external_work"])]
         for name in self.rigid_names:
             row += [repr(float(f)) for f in info["forces"][name]]
+            row += [repr(float(u)) for u in info["displacements"][name]]
+        for name in self.load_names:
+            row += [repr(float(f)) for f in info["load_forces"][name]]
+            row += [repr(float(u)) for u in info["load_displacements"][name]]
         row += [f"{info['particle_imbalance']:.4f}", f"{info['wall_time']:.4f}"]
         self.writer.writerow(row)
         self.file.flush()
