@@ -7,12 +7,18 @@ import traceback
 HELP = """\
 pimpm: parallel implicit Material Point Method (Guilkey & Weiss 2003) on PETSc.
 
-usage: [mpiexec -n N] python -m pimpm INPUT.yaml [--check] [--overwrite] [--restart] [PETSc options]
+usage: [mpiexec -n N] python -m pimpm INPUT.yaml [--check] [--overwrite] [--restart]
+                                    [--output DIR] [--set KEY.PATH=VALUE ...] [PETSc options]
 
   INPUT.yaml     problem description (schema: docs/INPUT.md)
   --check        validate the input, print a summary (cells, particles per body,
                  ranks, dt, steps) and exit without running
   --overwrite    replace results already in the output directory
+  --output DIR   write the results to DIR (overrides output.directory)
+  --set KEY.PATH=VALUE
+                 override any input value, validated as if it were in the file
+                 (repeatable): --set time.dt=0.0025 --set grid.cells=[160,84]
+                 --set bodies[1].velocity=[0,-25]
   --restart      continue from OUTDIR/checkpoint.h5 (written every
                  output.checkpoint_every steps, and when a run stops on a
                  failure, SIGTERM or SIGINT); end_time, solver and output
@@ -70,6 +76,8 @@ def parse(argv):
     parser.add_argument("--check", action="store_true")
     parser.add_argument("--overwrite", action="store_true")
     parser.add_argument("--restart", action="store_true")
+    parser.add_argument("--output")
+    parser.add_argument("--set", action="append", default=[])
     parser.add_argument("--help", action="store_true")
     ours, petsc = split_arguments(argv)
     args, unknown = parser.parse_known_args(ours)
@@ -124,7 +132,10 @@ def main(argv=None):
 def _run(args, comm, fail):
     from .config import ConfigError, load_config
     try:
-        config = load_config(args.input)
+        overrides = list(args.set)
+        if args.output is not None:
+            overrides.append(f"output.directory={args.output}")
+        config = load_config(args.input, overrides)
     except ConfigError as err:
         return fail(str(err))
     from .analysis import run

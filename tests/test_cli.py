@@ -413,6 +413,15 @@ BAD_INPUTS = {
         ["bodies[1].geometry", "lie inside body", "overlap"]),
     "a link where the XDMF temporary goes": (
         None, link_in_output("particles.xdmf.tmp"), ["particles.xdmf.tmp", "symbolic link"]),
+    "--set with a bad value, two ranks": (
+        2, yaml_case(lambda cfg: None, "--set", "time.dt=-1"),
+        ["--set time.dt=-1", "time.dt = -1", "positive number"]),
+    "--set without a value": (
+        None, yaml_case(lambda cfg: None, "--set", "time.dt"),
+        ["--set time.dt", "KEY.PATH=VALUE"]),
+    "--output that is a file": (
+        None, lambda directory: output_is_a_file(directory) + ["--output", "taken"],
+        ["output.directory", "'taken'", "not a directory"]),
     "a dangling link where history.csv goes": (
         None, link_in_output("history.csv", target_exists=False), ["history.csv", "symbolic link"]),
 }
@@ -540,6 +549,23 @@ def test_existing_results_are_not_overwritten(tmp_path):
     assert h5_steps(tmp_path / "bar_out" / "results.h5") == list(range(11))
     _, rows = read_history(tmp_path / "bar_out" / "history.csv")
     assert len(rows) == 10  # replaced, not appended
+
+
+def test_output_and_set_on_the_command_line(tmp_path):
+    """--output DIR and --set KEY=VALUE change the run as if the file said so;
+    the file's own output directory is left alone."""
+    write_yaml(tmp_path / "bar.yaml", bar(directory="bar_out"))
+    proc = run_pimpm(2 if MPIEXEC else None,
+                     ["bar.yaml", "--output", "elsewhere", "--set", "time.end_time=1.034",
+                      "--set", "bodies[0].particles_per_cell=[3, 1]"], cwd=tmp_path, timeout=120)
+    assert proc.returncode == 0, show(proc)
+    assert not (tmp_path / "bar_out").exists()
+    out = tmp_path / "elsewhere"
+    assert h5_steps(out / "results.h5") == [0, 1]
+    with h5py.File(out / "results.h5") as f:
+        body = f["steps/000000/particles/body"][...]
+    # the bar's 3 x 3 cells get 3 x 1 particles each instead of 2 x 2; the puller keeps 12
+    assert (body == 0).sum() == 27 and (body == 1).sum() == 12
 
 
 # --------------------------------------------------------------------------- PETSc options

@@ -531,3 +531,65 @@ def test_cylinder_geometry_only_in_3d():
     with pytest.raises(ConfigError) as info:
         validate(raw)
     assert "cylinder only in 3D" in str(info.value)
+
+
+# --------------------------------------------------------------------------- --set overrides
+
+def _write_base(tmp_path):
+    path = tmp_path / "billet.yaml"
+    path.write_text(BASE_YAML)
+    return path
+
+
+def test_set_overrides_values_of_any_depth(tmp_path):
+    path = _write_base(tmp_path)
+    config = load_config(path, ["time.dt=0.0025", "grid.cells=[30, 25]",
+                                "bodies[1].velocity=[0, -25]",
+                                "materials.rubber.density=20",
+                                "output.directory=elsewhere"])
+    plain = load_config(path)
+    assert config["time"]["dt"] == 0.0025 and plain["time"]["dt"] == 0.005
+    assert list(config["grid"]["cells"]) == [30, 25]
+    assert list(config["bodies"][1]["velocity"]) == [0.0, -25.0]
+    assert config["materials"]["rubber"]["density"] == 20.0
+    assert config["output"]["directory"] == "elsewhere"
+    # everything else untouched
+    assert config["time"]["end_time"] == plain["time"]["end_time"]
+    assert config["bodies"][0] == plain["bodies"][0]
+
+
+def test_set_adds_a_new_section_and_mapping_values(tmp_path):
+    path = _write_base(tmp_path)
+    config = load_config(path, ["solver.petsc={snes_rtol: 1e-10}"])
+    assert config["solver"]["petsc"]["snes_rtol"] in (1e-10, "1e-10")
+
+
+@pytest.mark.parametrize("override, wanted", [
+    ("time.dt=-1", ["--set time.dt=-1", "time.dt = -1", "positive number"]),
+    ("time.dt=fast", ["--set time.dt=fast", "'fast'", "positive number"]),
+    ("grid.cells=[30, 2.5]", ["--set grid.cells=[30, 2.5]", "grid.cells[1]", "integer"]),
+    ("time.dtt=1", ["--set time.dtt=1", "time.dtt", "unknown key"]),
+    ("bodies[5].velocity=[0,1]", ["--set bodies[5].velocity=[0,1]", "index below"]),
+    ("time.dt", ["--set time.dt", "expected KEY.PATH=VALUE"]),
+    ("=3", ["expected KEY.PATH=VALUE"]),
+    ("bodies[x].name=a", ["expected KEY.PATH=VALUE"]),
+    ("time.dt=[1,", ["--set time.dt=[1,", "not valid YAML"]),
+    ("title.x=1", ["--set title.x=1", "title", "not a mapping"]),
+])
+def test_bad_set_names_the_override(tmp_path, override, wanted):
+    path = _write_base(tmp_path)
+    with pytest.raises(ConfigError) as info:
+        load_config(path, [override])
+    message = str(info.value)
+    assert "\n" not in message
+    for text in wanted:
+        assert text in message, (text, message)
+
+
+def test_error_in_the_file_still_names_the_file_with_set(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text(BASE_YAML.replace("density: 10.0", "density: -10.0"))
+    with pytest.raises(ConfigError) as info:
+        load_config(path, ["time.dt=0.001"])
+    assert str(info.value).startswith("bad.yaml:") or "bad.yaml:" in str(info.value)
+    assert "--set" not in str(info.value)

@@ -85,12 +85,18 @@ def validate(raw, source_name=None):
     return config
 
 
-def load_config(path):
+def load_config(path, overrides=()):
     """Read a YAML input file and return ``validate(raw, source_name=<file stem>)``.
+
+    ``overrides``: ``KEY.PATH=VALUE`` strings (the command line's ``--set``),
+    applied to the file's data before validation; VALUE is read as YAML
+    (``0.0025``, ``[160, 84]``, ``{type: ramp, start: 0, end: 1}``) and
+    validated exactly as if it were in the file.
 
     A missing/unreadable file, a YAML syntax error, a duplicated key and every validation
     problem raise :class:`ConfigError`, prefixed with the file name and, when known,
-    the line (``billet.yaml:12: materials.rubber.density = -1.0: expected ...``).
+    the line (``billet.yaml:12: materials.rubber.density = -1.0: expected ...``), or
+    with the ``--set`` that gave the value.
     """
     fname = os.fspath(path)
     raw, lines = read_yaml(fname)
@@ -98,10 +104,79 @@ def load_config(path):
     if raw is None:
         raise ConfigError(f"{fname}: the file is empty: expected a YAML mapping with the "
                           f"sections {', '.join(TOP_KEYS)}")
+    given = apply_overrides(raw, overrides)
     stem = os.path.splitext(os.path.basename(fname))[0]
     try:
         return validate(raw, source_name=stem)
     except ConfigError as err:
+        for key, text in given:
+            if err.path and (err.path == key or err.path.startswith(key + ".")
+                             or err.path.startswith(key + "[")):
+                raise ConfigError(f"--set {text}: {err}", path=err.path) from None
         line = _line_for(err.path, lines)
         where = f"{fname}:{line}" if line else fname
         raise ConfigError(f"{where}: {err}", path=err.path) from None
+
+
+def _parse_key(text):
+    """``bodies[0].velocity`` -> ['bodies', 0, 'velocity']; None if malformed."""
+    keys = []
+    for part in text.split("."):
+        name, _, rest = part.partition("[")
+        if not name and not keys:
+            return None
+        if name:
+            keys.append(name)
+        while rest:
+            index, close, rest = rest.partition("]")
+            if not close or not index.isdigit() or (rest and not rest.startswith("[")):
+                return None
+            keys.append(int(index))
+            rest = rest[1:] if rest else ""
+    return keys if keys and all(k != "" for k in keys) else None
+
+
+def apply_overrides(raw, overrides):
+    """Set each ``KEY.PATH=VALUE`` in ``raw`` (in place); returns [(normalized
+    key path, the override's text)]. ConfigError for a malformed one."""
+    import yaml
+    given = []
+    for text in overrides:
+        key, eq, value_text = text.partition("=")
+        keys = _parse_key(key.strip()) if eq else None
+        if keys is None:
+            raise ConfigError(f"--set {text}: expected KEY.PATH=VALUE, e.g. time.dt=0.0025 or "
+                              f"bodies[0].velocity=[0,-1]")
+        try:
+            value = yaml.safe_load(value_text) if value_text.strip() else None
+        except yaml.YAMLError as err:
+            raise ConfigError(f"--set {text}: the value is not valid YAML ({err.problem}): expected "
+                              f"a number, a string, a [list] or a {{mapping}}") from None
+        node = raw
+        for depth, k in enumerate(keys[:-1]):
+            where = ".".join(str(x) for x in keys[:depth + 1])
+            if isinstance(k, int):
+                if not isinstance(node, list) or k >= len(node):
+                    raise ConfigError(f"--set {text}: {where} is not an existing list entry: expected "
+                                      f"an index below the list's length")
+                node = node[k]
+            else:
+                if not isinstance(node, dict):
+                    raise ConfigError(f"--set {text}: {where} is inside a value that is not a mapping")
+                if node.get(k) is None:
+                    node[k] = {}
+                node = node[k]
+        last = keys[-1]
+        if isinstance(last, int):
+            if not isinstance(node, list) or last >= len(node):
+                raise ConfigError(f"--set {text}: expected an index below the list's length")
+            node[last] = value
+        else:
+            if not isinstance(node, dict):
+                raise ConfigError(f"--set {text}: its parent is not a mapping")
+            node[last] = value
+        path = ""
+        for k in keys:
+            path = f"{path}[{k}]" if isinstance(k, int) else (f"{path}.{k}" if path else k)
+        given.append((path, text))
+    return given
