@@ -19,7 +19,7 @@ import os
 
 import numpy as np
 
-from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF, _attr_str, _ordered, _to_file_components
+from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF, POLYVERTEX, _attr_str, _ordered, _to_file_components
 from .plan import StepPlanner
 from .xdmf import write_xdmf
 
@@ -229,6 +229,8 @@ class ResultWriter:
                 else:
                     local = np.zeros((0,) + tuple(fd["shape"][1:]), dtype=fd["dtype"])
                 self._write_slab(dset, (offset,) + (0,) * (len(fd["shape"]) - 1), local)
+            if pp["count"] > 0:
+                self._write_connectivity(pp["count"], offset, n_local)
 
         gp = plan["grid"]
         if gp is not None:
@@ -248,6 +250,18 @@ class ResultWriter:
                     local = np.zeros(tuple(size[::-1]) + out_comp, dtype=fd["dtype"])
                 file_start = tuple(start[::-1]) + (0,) * len(out_comp)
                 self._write_slab(dset, file_start, local)
+
+    def _write_connectivity(self, count, offset, n_local):
+        """``/polyvertex/<count>``: 0..count-1, the Polyvertex topology's
+        connectivity (the Xdmf3 readers make no cells without one); one per
+        particle count, shared by the steps. Collective."""
+        group = self._file.require_group(POLYVERTEX)
+        name = str(int(count))
+        if name in group:
+            return
+        dset = self._new_dataset(group, name, (count, 1), np.int64, "Scalar")
+        local = np.arange(offset, offset + n_local, dtype=np.int64).reshape(-1, 1)
+        self._write_slab(dset, (offset, 0), local)
 
     # ------------------------------------------------------------------ restart
     def _load_records(self):

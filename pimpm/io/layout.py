@@ -7,9 +7,12 @@ Layout of ``<directory>/results.h5``::
     /steps/NNNNNN          attrs: step, time
     /steps/NNNNNN/particles/<field>   global arrays, rank-order concatenation
     /steps/NNNNNN/grid/<field>        node arrays in XDMF (z,) y, x order
+    /polyvertex/<count>    (count, 1) int64 0..count-1: the particles' Polyvertex
+                           connectivity, one per particle count, shared by the steps
 
 Every dataset carries the attribute ``AttributeType`` (Scalar, Vector, Tensor,
-Tensor6 or Matrix), which is also what the XDMF files declare.
+Tensor6, Matrix, or GlobalId for the integer particle field ``id``), which is
+also what the XDMF files declare.
 
 Component conventions (what XDMF/ParaView expect):
 
@@ -29,6 +32,7 @@ import numpy as np
 H5_NAME = "results.h5"
 PARTICLES_XDMF = "particles.xdmf"
 GRID_XDMF = "grid.xdmf"
+POLYVERTEX = "polyvertex"  # /polyvertex/<count>: (count, 1) int64 0..count-1
 
 
 def _step_name(step):

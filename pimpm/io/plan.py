@@ -174,6 +174,8 @@ class StepPlanner:
             if name == "position" and kind != "Vector":
                 raise ValueError("particle 'position' must have shape (n, %d)" % self.dim)
             dtype = _file_dtype([m[0] for _, m in decisive])
+            if name == "id" and kind == "Scalar" and dtype.kind in "iu":
+                kind = "GlobalId"  # ParaView follows a particle by it across steps
             fields[name] = dict(kind=kind, comp=comp, dtype=dtype,
                                 shape=(total,) + tuple(out_comp))
         return dict(count=total, counts=counts, offsets=offsets.tolist(), fields=fields)

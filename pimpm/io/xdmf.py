@@ -2,8 +2,9 @@
 ``grid.xdmf``; XDMF 3.0, relative paths to ``results.h5``). Rank 0 rewrites
 them after every step through a temporary file and ``os.replace``.
 
-* ``particles.xdmf``: Temporal collection of Polyvertex grids, geometry XYZ from
-  ``particles/position``, one Node attribute per field. Steps with no particles at
+* ``particles.xdmf``: Temporal collection of Polyvertex grids (connectivity
+  ``/polyvertex/<count>``), geometry XYZ from ``particles/position``, one Node
+  attribute per field, ``id`` as a GlobalId. Steps with no particles at
   all are left out (zero-sized DataItems upset the readers).
 * ``grid.xdmf``: Temporal collection of ``3DCoRectMesh`` grids (Dimensions, Origin
   and Spacing in z y x order, ORIGIN_DXDYDZ). A 2-D grid is described as one node
@@ -18,7 +19,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from .safe_files import atomic_write_text
-from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF, _xdmf_number_type
+from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF, POLYVERTEX, _xdmf_number_type
 
 
 def write_xdmf(directory, records, dim, nodes, lower, spacing):
@@ -43,8 +44,11 @@ def particles_xdmf(records):
         n = rec["particles"]["count"]
         grid = ET.SubElement(coll, "Grid", Name="particles_" + rec["name"], GridType="Uniform")
         ET.SubElement(grid, "Time", Value=repr(float(rec["time"])))
-        ET.SubElement(grid, "Topology", TopologyType="Polyvertex",
-                      NumberOfElements=str(n), NodesPerElement="1")
+        topology = ET.SubElement(grid, "Topology", TopologyType="Polyvertex",
+                                 NumberOfElements=str(n), NodesPerElement="1")
+        # with its connectivity: without it the Xdmf3 readers make no cells
+        # and meshio's TimeSeriesReader refuses the topology
+        _data_item(topology, (n, 1), "int64", "%s:/%s/%d" % (H5_NAME, POLYVERTEX, n))
         base = "%s:/steps/%s/particles/" % (H5_NAME, rec["name"])
         fields = {f[0]: f for f in rec["particles"]["fields"]}
         geo = ET.SubElement(grid, "Geometry", GeometryType="XYZ")

@@ -28,7 +28,7 @@ PARTICLE_FIELDS = ["position", "displacement", "velocity", "stress", "F", "von_m
                    "J", "body", "id", "flag"]
 PARTICLE_KINDS = {"position": "Vector", "displacement": "Vector", "velocity": "Vector",
                   "stress": "Tensor", "F": "Tensor", "von_mises": "Scalar", "J": "Scalar",
-                  "body": "Scalar", "id": "Scalar", "flag": "Scalar"}
+                  "body": "Scalar", "id": "GlobalId", "flag": "Scalar"}
 PARTICLE_DTYPES = {"velocity": np.float32, "body": np.int32, "id": np.int64,
                    "flag": np.uint8}
 GRID_FIELDS = ["mass", "velocity", "count", "stress"]
@@ -209,6 +209,11 @@ def check_case(outdir, dim, size):
                        "particle %s AttributeType" % name)
             if dim == 2:
                 expect(np.all(pg["position"][:, 2] == 0), "2-D positions z = 0")
+            # the Polyvertex connectivity shared by the steps with this count
+            conn = f.get("polyvertex/%d" % len(ids))
+            if expect(conn is not None, "polyvertex/%d missing" % len(ids)):
+                shapes[conn.name] = (conn.shape, conn.dtype)
+                same(conn[...], np.arange(len(ids)).reshape(-1, 1), "connectivity 0..n-1")
             # grid
             gg = g["grid"]
             expect(sorted(gg.keys()) == sorted(GRID_FIELDS), "grid fields %s" % sorted(gg.keys()))
@@ -263,8 +268,12 @@ def check_case(outdir, dim, size):
         step = STEPS[k]
         topo = g.find("Topology")
         expect(topo.get("TopologyType") == "Polyvertex", "particle topology")
-        expect(int(topo.get("NumberOfElements")) == len(particle_ids(size, k)[0]),
-               "particle NumberOfElements")
+        n = len(particle_ids(size, k)[0])
+        expect(int(topo.get("NumberOfElements")) == n, "particle NumberOfElements")
+        items = topo.findall("DataItem")
+        if expect(len(items) == 1, "particle topology has one connectivity DataItem"):
+            p = check_item(items[0], "particle connectivity")
+            expect(p == "/polyvertex/%d" % n, "connectivity dataset %s" % p)
         geo = g.find("Geometry")
         expect(geo.get("GeometryType") == "XYZ", "particle geometry type")
         p = check_item(geo.find("DataItem"), "particle geometry")
