@@ -28,11 +28,14 @@ def estimated_particles(config, per_body=False):
     counts = []
     for body in config["bodies"]:
         geo = body["geometry"]
+        if "particles" in geo:                # geometries from files: counted when read
+            counts.append(float(geo["particles"]))
+            continue
         if "lower" in geo:
             extent = np.asarray(geo["upper"]) - np.asarray(geo["lower"])
         elif "radius" in geo:
             extent = np.full(dim, 2.0 * geo["radius"])
-        else:                                 # geometries from files: the whole grid
+        else:
             extent = np.asarray(g["upper"]) - np.asarray(g["lower"])
         cells = np.prod(np.ceil(extent / h) + 1.0)
         counts.append(float(cells) * float(np.prod(np.broadcast_to(body["particles_per_cell"], (dim,)))))
@@ -94,7 +97,10 @@ def check(config, ranks, index_bits):
         if max(parts, key=parts.get) == "particles":
             counts = estimated_particles(config, per_body=True)
             i = int(np.argmax(counts))
-            where = f"bodies[{i}].particles_per_cell = {config['bodies'][i]['particles_per_cell']}"
+            geo = config["bodies"][i]["geometry"]
+            where = (f"bodies[{i}].geometry.file = {geo['file']!r} ({geo['particles']} particles)"
+                     if "particles" in geo else
+                     f"bodies[{i}].particles_per_cell = {config['bodies'][i]['particles_per_cell']}")
         else:
             where = f"grid.cells = {list(cells)}"
         details = ", ".join(f"{k} {describe_bytes(v)}" for k, v in parts.items())

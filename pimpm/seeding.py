@@ -1,6 +1,8 @@
 """Seeding: particles of every body on the cells each rank owns.
 
-Each cell is divided into ``particles_per_cell`` sub-cells per axis. A body
+Bodies from mesh and particle files are seeded by :mod:`pimpm.meshes`
+(:func:`seed_file_body`). For the others, each cell is divided into
+``particles_per_cell`` sub-cells per axis. A body
 is the intersection of an axis-aligned box (a box, or a cylinder's extent)
 with, for balls and cylinders, a curved region. Every sub-cell that
 overlaps the box is clipped to it: the particle sits at the centre of the
@@ -133,6 +135,30 @@ def _surface(grid, geometry, ppc, lattice, clip_lo, clip_hi, axisymmetric):
     return surface
 
 
+def seed_file_body(grid, geometry, id_offset, axisymmetric=False):
+    """Seed the particles of a mesh or particle-file body (pimpm.meshes) that
+    lie in the cells this rank owns: ``(x, volume0, half_size, id, surface)``
+    like :func:`seed_body`, and the number of ids the body uses."""
+    from . import meshes
+    dim = grid.dim
+    if geometry["type"] == "mesh":
+        mesh = meshes.read_mesh(geometry["file"], dim)
+        seeds = meshes.seed_mesh(mesh, geometry["particles_per_element"], geometry["scale"],
+                                 geometry["offset"], axisymmetric)
+        x, volume, surface, local_id = seeds.x, seeds.volume, seeds.surface, seeds.local_id
+        half = seeds.half_size
+    else:
+        x, volume = meshes.read_particle_file(geometry["file"], dim)
+        x = x * geometry["scale"] + np.asarray(geometry["offset"])
+        volume = volume * geometry["scale"] ** dim
+        surface = np.zeros((len(x), 2 * dim))
+        local_id = np.arange(len(x), dtype=np.int64)
+        half = np.repeat(0.5 * volume[:, None] ** (1.0 / dim), dim, axis=1)
+    cells = grid.cell_of(x)
+    mine = np.all((cells >= grid.owned_cell_start) & (cells < grid.owned_cell_end), axis=1)
+    return (x[mine], volume[mine], half[mine], local_id[mine] + id_offset, surface[mine]), len(local_id)
+
+
 def seed_bodies(config, grid, kinematics, densities, history_fields):
     """Material and rigid particle sets of all bodies in ``config``, sorted
     by cell. ``densities``: body index -> density of its material (deformable
@@ -144,9 +170,15 @@ def seed_bodies(config, grid, kinematics, densities, history_fields):
     id_offset = 0
     for i, b in enumerate(config["bodies"]):
         ppc = b["particles_per_cell"]
-        x, vol, half, pid, surface = seed_body(grid, b["geometry"], ppc, i, id_offset,
-                                               kinematics.name == "axisymmetric")
-        id_offset += int(np.prod(grid.cells)) * int(np.prod(ppc))
+        axisymmetric = kinematics.name == "axisymmetric"
+        if b["geometry"]["type"] in ("mesh", "particles"):
+            (x, vol, half, pid, surface), ids = seed_file_body(grid, b["geometry"], id_offset,
+                                                               axisymmetric)
+            id_offset += ids
+        else:
+            x, vol, half, pid, surface = seed_body(grid, b["geometry"], ppc, i, id_offset,
+                                                   axisymmetric)
+            id_offset += int(np.prod(grid.cells)) * int(np.prod(ppc))
         target = rig if b.get("rigid", False) else mat
         target["x"].append(x)
         target["id"].append(pid)
@@ -190,8 +222,8 @@ def inside_geometry(x, geometry, tolerance):
     """True for positions strictly inside a body's region (by more than
     ``tolerance`` per axis from its box faces; strictly inside a curved
     surface)."""
-    if len(x) == 0:
-        return np.zeros(0, dtype=bool)
+    if len(x) == 0 or geometry["type"] in ("mesh", "particles"):
+        return np.zeros(len(x), dtype=bool)   # not checked for geometries from files
     lo, hi = _bounding_box(geometry)
     inside = np.all((x > lo + tolerance) & (x < hi - tolerance), axis=1)
     distance = _signed_distance_curved(x, geometry)
@@ -223,3 +255,11 @@ def particles_per_body(config, particles, rigid, comm):
     for pset in (particles, rigid):
         counts += np.bincount(pset["body"], minlength=len(counts)).astype(np.int64)
     return comm.allreduce(counts)
+
+
+def body_volumes(config, particles, comm):
+    """Global reference volume of each deformable body (the sum of its
+    particles' volumes; 0 for rigid bodies). Collective."""
+    volumes = np.zeros(len(config["bodies"]))
+    np.add.at(volumes, particles["body"], particles["volume0"])
+    return comm.allreduce(volumes)

@@ -1,10 +1,11 @@
 """The problem summary printed by ``--check`` and at the start of a run."""
 import math
+import os
 
 import numpy as np
 
 from . import resources
-from .seeding import particles_per_body
+from .seeding import body_volumes, particles_per_body
 
 
 def step_count(end_time, dt):
@@ -34,9 +35,23 @@ def summary(sim, config):
         f"{config['grid']['shape_functions']} shape functions",
         f"  ranks     {comm.size} (process grid {'x'.join(str(int(p)) for p in sim.grid.proc_sizes)})",
     ]
-    for b, n in zip(config["bodies"], counts):
-        kind = "rigid" if b.get("rigid") else f"material {b['material']}"
-        lines.append(f"  body      {b['name']}: {int(n)} particles ({kind})")
+    volumes = body_volumes(config, sim.particles, comm)
+    for b, n, v in zip(config["bodies"], counts, volumes):
+        kind = "rigid" if b.get("rigid") else f"material {b['material']}, volume {v:.10g}"
+        source = ""
+        g = b["geometry"]
+        if g["type"] in ("mesh", "particles"):
+            # particles per cell on average: a quasi-static solve needs a few per cell
+            # and axis (2^dim per cell, like the default particles_per_cell 2)
+            per_cell = n * sim.grid.cell_volume / g["volume"] if g["volume"] > 0 else 0.0
+            source = (f", {g['elements']} elements x {g['particles_per_element']}^{sim.dim}"
+                      if g["type"] == "mesh" else "")
+            source += f" from {os.path.basename(g['file'])}, {per_cell:.3g} per cell"
+            if per_cell < 2 ** sim.dim:
+                source += (f" (fewer than {2 ** sim.dim}: a quasi-static solve may not converge; "
+                           + ("raise particles_per_element)" if g["type"] == "mesh" else
+                              "use a denser cloud)"))
+        lines.append(f"  body      {b['name']}: {int(n)} particles ({kind}{source})")
     dt_explicit = explicit_time_step(sim)
     if t["dt"] is None:
         lines.append(f"  time      explicit, automatic dt = {t['cfl']:g} x CFL step "

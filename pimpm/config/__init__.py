@@ -41,11 +41,13 @@ from .yaml_input import _line_for, read_yaml
 __all__ = ["ConfigError", "load_config", "validate"]
 
 
-def validate(raw, source_name=None):
+def validate(raw, source_name=None, base_dir=None):
     """Validate a raw (YAML-loaded) config and return a new normalized dict.
 
     ``source_name`` (the input file's stem) sets the default output directory
     ``<source_name>_output``; without it the default is ``pimpm_output``.
+    ``base_dir``: where relative paths of geometry files start (load_config:
+    the input file's directory; default the working directory).
     ``raw`` is never modified.  Raises :class:`ConfigError` on the first problem found.
     """
     raw = copy.deepcopy(raw)  # never touch the caller's data, never alias it
@@ -71,7 +73,7 @@ def validate(raw, source_name=None):
         top.required("materials", "a non-empty mapping of material name -> material spec"),
         "materials")
     bodies = _validate_bodies(top.required("bodies", "a non-empty list of bodies"),
-                              "bodies", dim, materials, grid, functions)
+                              "bodies", dim, materials, grid, functions, base_dir)
     loads = _validate_loads(top.optional("loads"), "loads", dim, bodies, functions, grid)
     time = _validate_time(top.required("time", "a mapping with dt and end_time"), "time", dim,
                           functions)
@@ -107,7 +109,8 @@ def load_config(path, overrides=()):
     given = apply_overrides(raw, overrides)
     stem = os.path.splitext(os.path.basename(fname))[0]
     try:
-        return validate(raw, source_name=stem)
+        return validate(raw, source_name=stem,
+                        base_dir=os.path.dirname(os.path.abspath(fname)))
     except ConfigError as err:
         for key, text in given:
             if err.path and (err.path == key or err.path.startswith(key + ".")

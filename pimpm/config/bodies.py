@@ -1,13 +1,18 @@
 """Validation of materials (each model's parameters from its own table),
-geometries and bodies."""
+geometries and bodies. Geometries from files (meshes, particle clouds) are
+read and checked here, so that a bad file is bad input (exit 2) before
+anything is allocated or written."""
+import os
 from collections.abc import Mapping
+
+import numpy as np
 
 from ..materials import MODELS, REQUIRED, elastic_moduli
 from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _fail,
     _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _positive, _string)
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
-    ELASTIC_KEYS, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
+    DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
     MODEL_PARAMETER_KEYS)
 
 
@@ -70,13 +75,63 @@ def _validate_materials(value, path):
     return out
 
 
-def _validate_geometry(value, path, dim):
+def _validate_file_geometry(sec, gtype, path, dim, base_dir):
+    """A mesh or particle file: read, checked, summarized (the particles are
+    made by :mod:`pimpm.meshes` at seeding)."""
+    from .. import meshes
+    fpath = sec.sub("file")
+    given = _string(sec.required("file", "the path of a mesh file" if gtype == "mesh"
+                                 else "the path of a CSV or HDF5 particle file"), fpath)
+    file = os.path.normpath(os.path.join(base_dir or os.getcwd(), os.path.expanduser(given)))
+    scale = sec.optional("scale")
+    scale = 1.0 if scale is _MISSING else _positive(scale, sec.sub("scale"))
+    offset = sec.optional("offset")
+    offset = [0.0] * dim if offset is _MISSING else _float_vector(offset, sec.sub("offset"), dim)
+    out = {"type": gtype, "file": file, "scale": scale, "offset": offset}
+    try:
+        if gtype == "mesh":
+            n = sec.optional("particles_per_element")
+            n = DEFAULT_PARTICLES_PER_ELEMENT if n is _MISSING else \
+                _int(n, sec.sub("particles_per_element"))
+            if n > 20:
+                _fail(sec.sub("particles_per_element"), n, "an integer from 1 to 20 (per axis "
+                      "and element)")
+            mesh = meshes.read_mesh(file, dim)
+            bad = meshes.check_orientation(mesh, 1)
+            if bad is not None:
+                index, cell_type, value, count = bad
+                measure = "area" if dim == 2 else "volume"
+                raise meshes.GeometryFileError(
+                    f"has {count} inverted or degenerate element(s), the first {cell_type} "
+                    f"{index} with det J {value:.6g}: expected a positive {measure} for every "
+                    f"element (counter-clockwise nodes in 2D, right-handed in 3D)")
+            elements, count, volume, lower, upper = meshes.mesh_summary(mesh, n, scale, offset)
+            out.update(particles_per_element=n, elements=int(elements))
+        else:
+            x, vol = meshes.read_particle_file(file, dim)
+            x = x * scale + np.asarray(offset)
+            count, volume = len(x), float(np.sum(vol)) * scale ** dim
+            lower, upper = x.min(axis=0), x.max(axis=0)
+        out.update(particles=int(count), volume=float(volume),
+                   lower=[float(v) for v in lower], upper=[float(v) for v in upper],
+                   sha256=meshes.file_digest(file))
+    except meshes.GeometryFileError as err:
+        shown = given if given == file else f"{given} ({file})"
+        raise ConfigError(f"{fpath} = {shown!r}: {err}", path=fpath) from None
+    except OSError as err:
+        raise ConfigError(f"{fpath} = {given!r}: cannot be read ({err.strerror})", path=fpath) from None
+    return out
+
+
+def _validate_geometry(value, path, dim, base_dir=None):
     if not isinstance(value, Mapping):
         _fail(path, value, f"a mapping with key 'type' ({_choices(GEOMETRY_TYPES)})")
     if "type" not in value:
         _fail_missing(_join(path, "type"), _choices(GEOMETRY_TYPES))
     gtype = _enum(value["type"], _join(path, "type"), GEOMETRY_TYPES)
     sec = _Section(value, path, GEOMETRY_KEYS[gtype])
+    if gtype in FILE_GEOMETRIES:
+        return _validate_file_geometry(sec, gtype, path, dim, base_dir)
     if gtype in ("box", "cylinder"):
         lower = _float_vector(sec.required("lower", f"a list of {dim} numbers"),
                               sec.sub("lower"), dim)
@@ -108,7 +163,15 @@ def _check_inside_grid(geom, path, grid, dim):
         tol = BBOX_RELATIVE_TOLERANCE * (ghi[i] - glo[i])
         axis = AXES[i]
         within = f"the grid on axis {axis} ([{_fmt(glo[i])}, {_fmt(ghi[i])}])"
-        if geom["type"] in ("box", "cylinder"):
+        if geom["type"] in FILE_GEOMETRIES:
+            lo, hi = geom["lower"][i], geom["upper"][i]
+            if lo < glo[i] - tol or hi > ghi[i] + tol:
+                what = "mesh" if geom["type"] == "mesh" else "particles"
+                raise ConfigError(
+                    f"{path}.file = {geom['file']!r}: the {what} (after scale and offset) spans "
+                    f"[{_fmt(lo)}, {_fmt(hi)}] on axis {axis}: expected it to lie within {within}",
+                    path=f"{path}.file")
+        elif geom["type"] in ("box", "cylinder"):
             if geom["lower"][i] < glo[i] - tol:
                 _fail(f"{path}.lower[{i}]", geom["lower"][i],
                       f"a number >= grid.lower[{i}] = {_fmt(glo[i])} (the body must lie "
@@ -125,7 +188,7 @@ def _check_inside_grid(geom, path, grid, dim):
                       f"axis {axis}) to lie within {within}")
 
 
-def _validate_body(value, path, dim, materials, grid, functions=None):
+def _validate_body(value, path, dim, materials, grid, functions=None, base_dir=None):
     sec = _Section(value, path, BODY_KEYS)
     name = _string(sec.required("name", "a non-empty string"), sec.sub("name"))
 
@@ -144,11 +207,16 @@ def _validate_body(value, path, dim, materials, grid, functions=None):
 
     geometry = _validate_geometry(sec.required("geometry", f"a mapping with key 'type' "
                                                            f"({_choices(GEOMETRY_TYPES)})"),
-                                  sec.sub("geometry"), dim)
+                                  sec.sub("geometry"), dim, base_dir)
     _check_inside_grid(geometry, sec.sub("geometry"), grid, dim)
 
     ppc_path = sec.sub("particles_per_cell")
     ppc = sec.optional("particles_per_cell")
+    if geometry["type"] in FILE_GEOMETRIES and ppc is not _MISSING:
+        instead = ("geometry.particles_per_element" if geometry["type"] == "mesh"
+                   else "the particles of the file")
+        _fail(ppc_path, ppc, f"no particles_per_cell with a {geometry['type']} geometry "
+                             f"(it uses {instead})")
     if ppc is _MISSING:
         ppc = [DEFAULT_PARTICLES_PER_CELL] * dim
     elif isinstance(ppc, (list, tuple)):
@@ -197,13 +265,15 @@ def _validate_body(value, path, dim, materials, grid, functions=None):
             "constrain": constrain}
 
 
-def _validate_bodies(value, path, dim, materials, grid, functions=None):
+def _validate_bodies(value, path, dim, materials, grid, functions=None, base_dir=None):
+    """``base_dir``: where relative geometry file paths start (the input
+    file's directory; the working directory if None)."""
     if not isinstance(value, (list, tuple)) or not value:
         _fail(path, value, "a non-empty list of bodies")
     bodies, first = [], {}
     for i, spec in enumerate(value):
         bpath = f"{path}[{i}]"
-        body = _validate_body(spec, bpath, dim, materials, grid, functions)
+        body = _validate_body(spec, bpath, dim, materials, grid, functions, base_dir)
         if body["name"] in first:
             _fail(f"{bpath}.name", body["name"],
                   f"a unique body name (already used by {path}[{first[body['name']]}])")

@@ -38,6 +38,10 @@ def _validate_loads(value, path, dim, bodies, functions, grid):
         body = sec.required("body", f"the name of a deformable body: {', '.join(deformable)}")
         if body not in deformable:
             _fail(sec.sub("body"), body, f"the name of a deformable body: {', '.join(deformable)}")
+        geometry = next(b["geometry"]["type"] for b in bodies if b["name"] == body)
+        if kind == "traction" and geometry == "particles":
+            _fail(sec.sub("body"), body, "a body with a surface (a particle cloud has no faces "
+                                         "to load: use a point or body_force load)")
         load = {"name": name, "type": kind, "body": body,
                 "function": _function_ref(sec.optional("function"), sec.sub("function"), functions)}
         if kind == "traction":

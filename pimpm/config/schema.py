@@ -15,7 +15,9 @@ BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
 BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: tuple(k for k in _KINEMATICS_REGISTRY if k != "3d"), 3: ("3d",)}
 MATERIAL_MODELS = tuple(MODELS)
-GEOMETRY_TYPES = ("box", "ball", "cylinder")
+GEOMETRY_TYPES = ("box", "ball", "cylinder", "mesh", "particles")
+FILE_GEOMETRIES = ("mesh", "particles")
+DEFAULT_PARTICLES_PER_ELEMENT = 2
 INTEGRATORS = tuple(_INTEGRATOR_REGISTRY)
 STRESS_UPDATES = ("musl", "usl", "usf")
 AXES = ("x", "y", "z")
@@ -33,7 +35,9 @@ MATERIAL_KEYS = ("model", "density") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "function", "constrain")
 GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius"),
-                 "cylinder": ("type", "lower", "upper", "axis", "center", "radius")}
+                 "cylinder": ("type", "lower", "upper", "axis", "center", "radius"),
+                 "mesh": ("type", "file", "particles_per_element", "scale", "offset"),
+                 "particles": ("type", "file", "scale", "offset")}
 TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "gravity_function", "dt_initial", "ramp_factor",
              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
              "stress_update", "formulation") + tuple(
