@@ -12,7 +12,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import assembly, bc, energy, faults, resources
+from . import assembly, bc, energy, faults, resources, weak_nodes
 from .errors import SetupError, StepFailed
 from .grid import Grid
 from .implicit import StepProblem, StepState, TangentPattern, constraint_scale, residual_scale
@@ -100,6 +100,11 @@ class Simulation:
             self.balance = pimpm_option("pimpm_balance", True)      # -pimpm_balance 0: PETSc's even split
             #: repartition before a step when the particle imbalance exceeds this
             self.rebalance_threshold = pimpm_option("pimpm_rebalance_threshold", 1.1)
+            #: nodes with less support than this fraction of a cell are extended out (implicit)
+            self.weak_fraction = weak_nodes.weak_node_fraction()
+            if not 0.0 <= self.weak_fraction < 1.0:
+                raise ValueError(f"-pimpm_weak_node_fraction {self.weak_fraction}: expected a number "
+                                 f">= 0 and < 1 (0: no extension)")
         except ValueError as err:
             raise SetupError(str(err)) from None
         if self.balance and not same_layout:
@@ -270,10 +275,32 @@ class Simulation:
         return increments, per_body[self.rigid["body"]]
 
     # ----------------------------------------------------------------- one step
+    def extend_weak_nodes(self, node_index, S, G, dt):
+        """Fold the free nodes the particles barely reach out of this step's
+        footprint (pimpm.weak_nodes; in place): quasi-static steps, where
+        no inertia holds such a node. Collective."""
+        self.weak_pairs = 0
+        if self.weak_fraction <= 0.0 or self.shape.nodes_per_axis != 3 \
+                or self.integrator.name != "quasi_static":
+            return
+        p, grid = self.particles, self.grid
+        area = p["volume0"] * np.linalg.det(p["F"][:, :self.dim, :self.dim])
+        if self.kinematics.name == "axisymmetric":                 # the in-plane area
+            area = area / (2.0 * np.pi * p["x0"][:, 0])
+        support = weak_nodes.support_fraction(grid, node_index, S, area)
+        prescribed = np.zeros(grid.n_owned_nodes * self.dim, dtype=bool)
+        faces, _ = bc.face_constraints(grid, self.boundary, self.time, dt, self.functions)
+        prescribed[faces] = True
+        for body in self.rigid_bodies:
+            prescribed |= body.touched_dofs(grid, self.shape, self.rigid)
+        nodes = weak_nodes.WeakNodes(grid, support, prescribed, self.weak_fraction)
+        self.weak_pairs = weak_nodes.extend(self.shape, grid, node_index, S, G, nodes)
+
     def prepare_step(self, dt):
         """Steps 1-2: P2G and the Newton state on the reset grid."""
         p, grid = self.particles, self.grid
         node_index, S, G = self.footprint()
+        self.extend_weak_nodes(node_index, S, G, dt)
         mass, velocity, acceleration, fext = self.nodal_state(node_index, S, self.time + dt)
         # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
         weight = np.empty(grid.n_local_nodes)

@@ -196,3 +196,124 @@ def gradient_weight(node_index, G, spacing, mass, out):
                 hg = spacing[d] * G[p, k, d]
                 s += hg * hg
             out[node_index[p, k]] += mass[p] * s
+
+
+@jit
+def fold_weak_nodes(axes, nodes_per_axis, node_index, S, G, weak, receives, ghost_start,
+                    ghost_shape):
+    """Extend the weakly supported nodes (``weak``, ghosted-local flags) out
+    of the footprint (pimpm.weak_nodes). For each particle and each weak
+    node at an end of its stencil along some axes, the smallest sets D of
+    those axes are found along which every node 1 or 2 steps inward is a
+    genuine node (not clipped onto the grid) that may take weight
+    (``receives``: neither weak nor prescribed); the weak node's weight and
+    gradient go to those nodes with the tensor product of the linear
+    extrapolation weights (+2 one step in, -1 two steps in, per axis of D),
+    shared equally among the sets found (so that no axis comes first).
+    Linear fields stay exact; the weak node keeps no weight. Returns the
+    number of (particle, node) pairs folded."""
+    dim = len(axes)
+    n, nn = S.shape
+    npa = nodes_per_axis
+    stride = np.empty(3, dtype=np.int64)     # stencil slot strides
+    gstride = np.empty(3, dtype=np.int64)    # ghosted-local node strides
+    stride[0] = 1
+    gstride[0] = 1
+    for d in range(1, dim):
+        stride[d] = stride[d - 1] * npa
+        gstride[d] = gstride[d - 1] * ghost_shape[d - 1]
+    o = np.empty(3, dtype=np.int64)
+    inward = np.empty(3, dtype=np.int64)
+    good = np.zeros(8, dtype=np.bool_)       # per subset of axes (bit mask)
+    folded = 0
+    for p in range(n):
+        for s in range(nn):
+            node = node_index[p, s]
+            if not weak[node] or S[p, s] == 0.0:
+                continue
+            ends = 0
+            for d in range(dim):
+                o[d] = (s // stride[d]) % npa
+                inward[d] = 1 if o[d] == 0 else -1
+                if o[d] != 1:
+                    ends |= 1 << d
+            if ends == 0:
+                continue
+            # the smallest subsets of the end axes whose 2^|D| targets all qualify
+            count = 0
+            for size in range(1, dim + 1):
+                for mask in range(1, 1 << dim):
+                    good[mask] = False
+                    if (mask & ends) != mask or _bits(mask) != size:
+                        continue
+                    ok = True
+                    for code in range(1 << size):
+                        t = _target(s, node, mask, code, dim, inward, stride, gstride, ghost_shape,
+                                    node_index, p)
+                        if t < 0 or not receives[node_index[p, t]]:
+                            ok = False
+                            break
+                    good[mask] = ok
+                    if ok:
+                        count += 1
+                if count > 0:
+                    break
+            if count == 0:
+                continue
+            w, g = S[p, s] / count, np.empty(dim)
+            for e in range(dim):
+                g[e] = G[p, s, e] / count
+            S[p, s] = 0.0
+            for e in range(dim):
+                G[p, s, e] = 0.0
+            for mask in range(1, 1 << dim):
+                if not good[mask]:
+                    continue
+                size = _bits(mask)
+                for code in range(1 << size):
+                    t = _target(s, node, mask, code, dim, inward, stride, gstride, ghost_shape,
+                                node_index, p)
+                    c = 1.0
+                    for b in range(size):
+                        c *= -1.0 if (code >> b) & 1 else 2.0
+                    S[p, t] += c * w
+                    for e in range(dim):
+                        G[p, t, e] += c * g[e]
+            folded += 1
+    return folded
+
+
+@jit
+def _bits(mask):
+    c = 0
+    while mask:
+        c += mask & 1
+        mask >>= 1
+    return c
+
+
+@jit
+def _target(s, node, mask, code, dim, inward, stride, gstride, ghost_shape, node_index, p):
+    """The stencil slot 1 or 2 steps inward from slot ``s`` along the axes of
+    ``mask`` (bit b of ``code``: 2 steps along the b-th axis of the mask), or
+    -1 if a node on the way is clipped onto the grid (not genuine)."""
+    t = s
+    b = 0
+    for d in range(dim):
+        if (mask >> d) & 1:
+            steps = 2 if (code >> b) & 1 else 1
+            t += steps * inward[d] * stride[d]
+            b += 1
+    # genuine: the target's grid index along each folded axis is the weak node's plus the steps
+    target = node_index[p, t]
+    b = 0
+    for d in range(dim):
+        i0 = (node // gstride[d]) % ghost_shape[d]
+        i1 = (target // gstride[d]) % ghost_shape[d]
+        steps = 0
+        if (mask >> d) & 1:
+            steps = 2 if (code >> b) & 1 else 1
+            b += 1
+        if i1 != i0 + steps * inward[d]:
+            return -1
+    return t

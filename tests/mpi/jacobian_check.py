@@ -21,7 +21,12 @@ integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
 plastic = len(sys.argv) > 4 and sys.argv[4] in ("j2", "j2finite")
-options = sys.argv[5:]                    # a kinematics name, "momentum" and/or "onecell"
+options = sys.argv[5:]                    # a kinematics name, "momentum", "onecell", "weak=F"
+weak = [a for a in options if a.startswith("weak=")]
+options = [a for a in options if not a.startswith("weak=")]
+if weak:                                  # the fraction of pimpm.weak_nodes
+    from petsc4py import PETSc
+    PETSc.Options().setValue("pimpm_weak_node_fraction", weak[0].split("=")[1])
 momentum = "momentum" in options
 one_cell = "onecell" in options           # a column one cell wide in x (and y in 3D)
 kinematics = next((a for a in options if a not in ("momentum", "default", "onecell")), None)
@@ -93,6 +98,7 @@ sim = Simulation(validate(raw), comm)
 sim.advance(0.01)
 sim.advance(0.01)
 state, _ = sim.prepare_step(0.01)
+weak_pairs = comm.allreduce(int(sim.weak_pairs))
 if plastic:
     n_plastic = comm.allreduce(int(np.sum(sim.particles["h_eq_plastic_strain"] > 0)))
     assert n_plastic > 10, n_plastic
@@ -177,6 +183,6 @@ if comm.rank == 0:
     print(f"jacobian_check {integrator} dim={sim.dim} shape={shape} ranks={comm.size} free_dofs={n_free} "
           f"formulation={'momentum' if momentum else 'velocity'} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok} "
-          f"asymmetry={asymmetry:.3e} declared_symmetric={problem.symmetric}")
+          f"asymmetry={asymmetry:.3e} declared_symmetric={problem.symmetric} weak_pairs={weak_pairs}")
 ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8
 sys.exit(0 if ok else 1)
