@@ -215,10 +215,7 @@ class Simulation:
         homogeneous deformation), at most half a cell."""
         p = self.particles
         stretch = np.abs(np.diagonal(p["F"], axis1=1, axis2=2)[:, :self.dim])
-        half = np.minimum(p["half_size"] * stretch, 0.5 * self.grid.spacing)
-        # a domain that would cross a grid face ends on it (partition of unity)
-        x = p["x"]
-        return np.minimum(half, np.maximum(np.minimum(x - self.grid.lower, self.grid.upper - x), 0.0))
+        return np.minimum(p["half_size"] * stretch, 0.5 * self.grid.spacing)
 
     def tangent_pattern(self, node_index, active):
         """The couplings of this step's tangent (pimpm.kernels.pattern)."""

@@ -7,7 +7,10 @@ linear triangles, 0.04 at the hole growing to 0.12 away from it, written in
 Gmsh's MSH 4.1 format. The mesh is shipped, so running pimpm on it needs no
 Gmsh; rerun this after changing the geometry.
 
-    python scripts/make_plate_with_hole.py [--out inputs/plate_with_hole.msh]
+    python scripts/make_plate_with_hole.py [--out inputs/plate_with_hole.msh] [--size-factor 1]
+
+(--size-factor 0.5 --out /tmp/plate_fine.msh makes the finer mesh of the
+40-cells-per-radius row of docs/VALIDATION.md.)
 """
 import argparse
 import os
@@ -22,7 +25,9 @@ FINE, COARSE = 0.04, 0.12
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default=os.path.join(ROOT, "inputs", "plate_with_hole.msh"))
+    ap.add_argument("--size-factor", type=float, default=1.0, help="scales the element sizes")
     args = ap.parse_args()
+    fine, coarse = FINE * args.size_factor, COARSE * args.size_factor
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("plate_with_hole")
@@ -40,8 +45,8 @@ def main():
     field.setNumber(distance, "NumPointsPerCurve", 200)
     threshold = field.add("Threshold")
     field.setNumber(threshold, "InField", distance)
-    field.setNumber(threshold, "SizeMin", FINE)
-    field.setNumber(threshold, "SizeMax", COARSE)
+    field.setNumber(threshold, "SizeMin", fine)
+    field.setNumber(threshold, "SizeMax", coarse)
     field.setNumber(threshold, "DistMin", 0.0)
     field.setNumber(threshold, "DistMax", 3.0 * RADIUS)
     field.setAsBackgroundMesh(threshold)

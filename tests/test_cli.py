@@ -165,7 +165,13 @@ def expected_summary(path):
         ppc = b.get("particles_per_cell", 2)
         ppc = ppc if isinstance(ppc, list) else [ppc] * dim
         geo = b["geometry"]
-        if geo["type"] == "box":
+        if geo["type"] == "mesh":           # n^dim particles per element (pimpm/meshes.py)
+            import meshio
+            mesh = meshio.read(os.path.join(os.path.dirname(path), geo["file"]))
+            kinds = ("triangle", "quad") if dim == 2 else ("tetra", "hexahedron")
+            elements = sum(len(c.data) for c in mesh.cells if c.type in kinds)
+            bodies[b["name"]] = elements * geo.get("particles_per_element", 2) ** dim
+        elif geo["type"] == "box":
             bodies[b["name"]] = math.prod(
                 round((float(geo["upper"][i]) - float(geo["lower"][i])) / h[i] * ppc[i])
                 for i in range(dim))
