@@ -65,7 +65,7 @@ def elastica_tip(k, points=400):
     return float(integrals(a)[1]), float(1.0 - np.sqrt(2.0 * np.sin(a) / k))
 
 
-def reissner_tip(k, axial=0.0, shear=0.0, at=1.0, samples=2000):
+def reissner_tip(k, axial=0.0, shear=0.0, at=1.0, samples=400):
     """Displacements (vertical, horizontal, over L) of the point of the centre
     line at reference arclength ``at`` L (default the tip) of an extensible and
     shear-deformable cantilever under a dead end load (Reissner's geometrically
@@ -77,7 +77,7 @@ def reissner_tip(k, axial=0.0, shear=0.0, at=1.0, samples=2000):
     (kappa G A)); theta(0) = 0, m(1) = 0. ``axial = shear = 0`` is the
     inextensible elastica of :func:`elastica_tip`; at small k the deflection
     is Timoshenko's (bending + shear). Shooting on m(0) from the elastica's
-    value with the secant method, RK4 with ``samples`` steps; then the initial
+    value with the secant method, RK4 with ``samples`` steps (1e-11 against 2000 steps at k = 10); then the initial
     value problem to ``at``."""
 
     def rate(y):
