@@ -98,7 +98,7 @@ def reissner_tip(k, axial=0.0, shear=0.0, at=1.0, samples=400):
             y = y + h / 6.0 * (a + 2.0 * b + 2.0 * c + d)
         return y
 
-    vertical, horizontal = elastica_tip(k)
+    _, horizontal = elastica_tip(k)
     m0, m1 = k * (1.0 - horizontal), k * (1.0 - horizontal) * (1.0 + 1e-3)
     f0, f1 = shoot(m0)[1], shoot(m1)[1]
     for _ in range(50):

@@ -23,7 +23,9 @@ import yaml
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
+sys.path.insert(0, os.path.join(ROOT, "tests"))
 from bench_solvers import parse_log  # noqa: E402
+from helpers import run_pimpm  # noqa: E402
 
 TIMEOUT = 1800
 
@@ -34,12 +36,10 @@ def run(preset, ranks, workdir):
     config["output"] = {"directory": "out", "every": 1000}
     with open(os.path.join(workdir, "case.yaml"), "w") as f:
         yaml.safe_dump(config, f)
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=ROOT)
-    cmd = (["mpiexec", "-n", str(ranks)] + (["--oversubscribe"] if ranks > 2 else []) +
-           [sys.executable, "-m", "pimpm", "case.yaml", "--overwrite", "-pimpm_preset", preset, "-log_view"])
     start = time.perf_counter()
     try:
-        proc = subprocess.run(cmd, cwd=workdir, env=env, capture_output=True, text=True, timeout=TIMEOUT)
+        proc = run_pimpm(ranks, ["case.yaml", "--overwrite", "-pimpm_preset", preset, "-log_view"],
+                         timeout=TIMEOUT, cwd=workdir)
     except subprocess.TimeoutExpired:
         return {"preset": preset, "ok": False, "error": f"timeout after {TIMEOUT} s"}
     wall = time.perf_counter() - start

@@ -17,7 +17,6 @@ several step sizes (and, with --cells, another grid). For each run:
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -25,18 +24,19 @@ import h5py
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+from helpers import run_pimpm  # noqa: E402
+
 INPUT = os.path.join(ROOT, "inputs", "billet_cycle.yaml")
 TRAVEL = 4.0           # cm: 20% of the 20 cm half height
 
 
 def run(dt, ranks, workdir, cells=None):
     out = os.path.join(workdir, f"dt{dt}-{ranks}-{cells}")
-    cmd = (["mpiexec", "-n", str(ranks)] + (["--oversubscribe"] if ranks > 2 else []) +
-           [sys.executable, "-m", "pimpm", INPUT, "--overwrite", "--output", out, "--set", f"time.dt={dt}"])
+    args = [INPUT, "--overwrite", "--output", out, "--set", f"time.dt={dt}"]
     if cells:
-        cmd += ["--set", f"grid.cells=[{cells[0]},{cells[1]}]"]
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=ROOT)
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+        args += ["--set", f"grid.cells=[{cells[0]},{cells[1]}]"]
+    proc = run_pimpm(ranks, args)
     if proc.returncode != 0:
         raise RuntimeError(proc.stdout[-2000:] + proc.stderr[-2000:])
     return measure(out, dt, cells)

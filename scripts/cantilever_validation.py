@@ -21,7 +21,6 @@ reference is interpolated in k between the steps.
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -30,6 +29,8 @@ import yaml
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+from helpers import run_pimpm  # noqa: E402
 from pimpm.reference import elastica_tip, reissner_tip, timoshenko_cantilever  # noqa: E402
 
 INPUT = os.path.join(ROOT, "inputs", "cantilever.yaml")
@@ -59,12 +60,10 @@ def run(depth_cells, ranks, small, workdir, extra=()):
         sets += [f"loads[0].traction=[0,{-SMALL_TRACTION}]", "time.dt=0.5"]
     sets += list(extra)
     out = os.path.join(workdir, f"{'small' if small else 'large'}{depth_cells}-{ranks}")
-    cmd = (["mpiexec", "-n", str(ranks)] + (["--oversubscribe"] if ranks > 2 else []) +
-           [sys.executable, "-m", "pimpm", INPUT, "--overwrite", "--output", out])
+    args = [INPUT, "--overwrite", "--output", out]
     for s in sets:
-        cmd += ["--set", s]
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=ROOT)
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+        args += ["--set", s]
+    proc = run_pimpm(ranks, args)
     if proc.returncode != 0:
         raise RuntimeError(proc.stdout[-2000:] + proc.stderr[-2000:])
     history = np.genfromtxt(os.path.join(out, "history.csv"), delimiter=",", names=True)

@@ -16,7 +16,6 @@ over the applied traction; Heywood: Kt = 3.14 for d/w = 0.2.
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -26,6 +25,7 @@ import yaml
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "tests"))
+from helpers import last_particles, run_pimpm  # noqa: E402
 from pimpm.measures import hole_peak_stress  # noqa: E402
 from pimpm.reference import heywood_kt  # noqa: E402
 
@@ -35,20 +35,16 @@ RADIUS, WIDTH = 1.0, 10.0
 
 def run(cells_per_radius, ranks, workdir, mesh=None):
     """Run the input with h = radius / cells_per_radius; returns the row."""
-    from helpers import last_particles
     with open(INPUT) as f:
         raw = yaml.safe_load(f)
     h = RADIUS / cells_per_radius
     cells = [int(round(u / h)) for u in raw["grid"]["upper"]]
     traction = raw["loads"][0]["traction"][1]
     out = os.path.join(workdir, f"h{cells_per_radius}-{ranks}")
-    cmd = (["mpiexec", "-n", str(ranks)] + (["--oversubscribe"] if ranks > 2 else []) +
-           [sys.executable, "-m", "pimpm", INPUT, "--overwrite", "--output", out,
-            "--set", f"grid.cells=[{cells[0]},{cells[1]}]"])
+    args = [INPUT, "--overwrite", "--output", out, "--set", f"grid.cells=[{cells[0]},{cells[1]}]"]
     if mesh:
-        cmd += ["--set", f"bodies[0].geometry.file={os.path.abspath(mesh)}"]
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=ROOT)
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+        args += ["--set", f"bodies[0].geometry.file={os.path.abspath(mesh)}"]
+    proc = run_pimpm(ranks, args)
     if proc.returncode != 0:
         raise RuntimeError(proc.stdout[-2000:] + proc.stderr[-2000:])
     particles, _ = last_particles(os.path.join(out, "results.h5"))
