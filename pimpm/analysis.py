@@ -126,17 +126,22 @@ class HistoryObserver(Observer):
 class OutputObserver(Observer):
     """results.h5 and the XDMF files: the initial state, every ``every``
     steps, the last step, and after a failure or an interruption the last
-    good step. ``restart``: continue the files of a checkpointed run (steps
-    written after the checkpoint's are dropped; its own is not written again)."""
+    good step. ``restart``: continue the files of a checkpointed run as if it
+    had never stopped: the steps written after the checkpoint's are dropped,
+    and so is the checkpoint's own step when it is off the ``every`` grid
+    (written only because the run stopped there); an on-grid one is kept
+    and not written again."""
 
     def __init__(self, sim, directory, every, restart=False):
         grid = sim.grid
         self.writer = ResultWriter(sim.comm, directory, sim.dim, grid.lower, grid.spacing, grid.nodes,
                                    append=restart)
-        if restart:
-            self.writer.drop_steps_after(sim.step_index)
         self.every = every
-        self.written = sim.step_index if restart else -1
+        self.written = -1
+        if restart:
+            on_grid = sim.step_index % every == 0
+            self.writer.drop_steps_after(sim.step_index if on_grid else sim.step_index - 1)
+            self.written = sim.step_index if on_grid else -1
         self.restart = restart
 
     def _write(self, sim):

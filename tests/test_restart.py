@@ -48,7 +48,7 @@ def last_step(out):
 def bar_explicit():
     with open(os.path.join(ROOT, "inputs", "bar_tension_explicit.yaml")) as f:
         raw = yaml.safe_load(f)
-    raw["time"]["end_time"] = 0.2 * raw["time"]["end_time"]
+    raw["time"]["end_time"] = 0.05 * raw["time"]["end_time"]     # 120 steps
     return raw
 
 
@@ -69,7 +69,7 @@ CASES = {
     "quasi-static billet": (lambda: coarse_billet("quasi_static"), 7),
     "Newmark billet": (billet_newmark, 4),
     "J2 upsetting": (upsetting, 4),
-    "explicit bar": (bar_explicit, 40),
+    "explicit bar": (bar_explicit, 50),
 }
 
 
@@ -80,6 +80,10 @@ def stopped_and_continued(request, tmp_path_factory):
     make, stop_step = CASES[request.param]
     raw = make()
     raw["output"] = {"directory": "out", "every": 3}
+    if raw["time"].get("integrator") != "explicit":
+        # GMRES + GAMG: 2-rank runs repeat bit for bit (MUMPS's do not, see
+        # docs/RELIABILITY.md, so no restart could equal them bitwise)
+        raw["solver"] = {"preset": "gmres-gamg", "fallback": False, "petsc": {"ksp_rtol": 1e-10}}
     work = {}
     for label in ("whole", "stopped"):
         work[label] = tmp_path_factory.mktemp(label)
@@ -146,7 +150,7 @@ def test_a_restart_on_other_ranks_agrees_to_1e8(stopped_and_continued, ranks, tm
 
 def slow_billet(directory):
     raw = coarse_billet("quasi_static")
-    raw["time"].update(dt=0.001, end_time=0.2)          # a few seconds of steps
+    raw["time"].update(dt=0.001, end_time=0.08)         # a few seconds of steps
     raw["output"] = {"directory": "out", "every": 10}
     write_yaml(os.path.join(directory, "input.yaml"), raw)
 
@@ -189,7 +193,7 @@ def test_sigterm_to_mpiexec_checkpoints_within_seconds(tmp_path):
     again = pimpm(2, ["input.yaml", "--restart"], tmp_path)
     assert again.returncode == 0, again.stderr[-2000:]
     _, rows = history(tmp_path / "out")
-    assert [r[0] for r in rows] == [str(i) for i in range(1, 201)]
+    assert [r[0] for r in rows] == [str(i) for i in range(1, 81)]
 
 
 def test_sigint_to_one_rank_stops_all_with_130_and_a_second_one_at_once(tmp_path):

@@ -38,10 +38,11 @@ def bulge(sim):
 
 
 def test_every_preset_gives_the_same_billet():
-    """4 steps (20% compression) of the 1 cm billet with every preset."""
+    """2 steps (10% compression) of the 1 cm billet with every preset (the
+    matrix-free ones evaluate the residual ~500 times a step)."""
     results = {}
     for preset in ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free"):
-        sim, infos = run_steps(billet_config(preset, end_time=0.04), 4)
+        sim, infos = run_steps(billet_config(preset, end_time=0.02), 2)
         results[preset] = bulge(sim), infos
         assert all(info["newton_iterations"] <= 10 for info in infos), preset
         sim.solver.destroy()
