@@ -139,9 +139,9 @@ class OutputObserver(Observer):
         self.every = every
         self.written = -1
         if restart:
-            on_grid = sim.step_index % every == 0
-            self.writer.drop_steps_after(sim.step_index if on_grid else sim.step_index - 1)
-            self.written = sim.step_index if on_grid else -1
+            kept = sim.step_index if sim.step_index % every == 0 else sim.step_index - 1
+            self.writer.drop_steps_after(kept)
+            self.written = kept
         self.restart = restart
 
     def _write(self, sim):
