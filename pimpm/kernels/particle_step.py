@@ -61,11 +61,23 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
     grad = np.empty((3, 3))
     Finv = np.zeros((3, 3))
     P = np.empty((3, 3))
+    # One particle's data is copied into these scratch arrays, allocated once:
+    # a view such as F[p] made inside the loop costs numba a reference-count
+    # increment and decrement per view and particle (measured: the stress of
+    # the billet's 25,600 particles 5.5 ms with views, 4.4 ms without).
+    Fi = np.empty((3, 3))
+    Fn = np.empty((3, 3))
+    Fp = np.empty((3, 3))
+    sp = np.empty((3, 3))
+    n_history = h_in.shape[1]
+    hi = np.empty(n_history)
+    ho = np.empty(n_history)
+    n_params = params.shape[1]
+    prm = np.empty(n_params)
     if want_force:
         force[:] = 0.0
     inverted = 0
     for p in range(n):
-        Fi = F_inc[p]
         grad[:] = 0.0
         for k in range(nn):
             if not active[p, k]:
@@ -84,27 +96,40 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
             Fi[2, 2] = 1.0 + u_r / radius[p]
         if not (det3(Fi) > 0.0):
             inverted += 1
-        matmul3(Fi, F_n[p], F[p])
+        for a in range(3):
+            for b in range(3):
+                Fn[a, b] = F_n[p, a, b]
+        matmul3(Fi, Fn, Fp)
         m = material_of[p]
-        cp = c[p] if keep_c else c_scratch
-        sp = sigma[p]
+        for k in range(n_history):
+            hi[k] = h_in[p, k]
+            ho[k] = hi[k]
+        for k in range(n_params):
+            prm[k] = params[m, k]
         if kinematics == PLANE_STRESS:
-            solve_thickness(models[m], params[m], F[p], Fi, h_in[p], h_out[p], sp, cp,
-                            want_tangent, w, D)
+            solve_thickness(models[m], prm, Fp, Fi, hi, ho, sp, c_scratch, want_tangent, w, D)
         else:
-            material_point(models[m], params[m], F[p], h_in[p], h_out[p], sp, cp,
-                           want_tangent, w, D)
+            material_point(models[m], prm, Fp, hi, ho, sp, c_scratch, want_tangent, w, D)
+        for a in range(3):
+            for b in range(3):
+                F_inc[p, a, b] = Fi[a, b]
+                F[p, a, b] = Fp[a, b]
+                sigma[p, a, b] = sp[a, b]
+        for k in range(n_history):
+            h_out[p, k] = ho[k]
+        if keep_c:
+            c[p] = c_scratch
         J_inc = det3(Fi)                 # full 3x3: thickness (plane stress), hoop (axisymmetric)
         if want_tangent:
             v = volume_n[p] * J_inc      # current volume
-            tp = tangent[p]
             for a in range(dim):
                 for cc in range(dim):
                     for b in range(dim):
                         for d in range(dim):
-                            tp[a, cc, b, d] = v * (cp[a, cc, b, d] + (sp[cc, d] if a == b else 0.0))
+                            tangent[p, a, cc, b, d] = v * (c_scratch[a, cc, b, d]
+                                                           + (sp[cc, d] if a == b else 0.0))
             if kinematics == AXISYMMETRIC:
-                _hoop_terms(cp, sp, v, dim, hoop[p])
+                _hoop_terms(c_scratch, sp, v, dim, hoop[p])
         if not want_force:
             continue
         _in_plane_inverse(Fi, dim, Finv)
