@@ -74,18 +74,20 @@ def neo_hookean(F, mu, kappa, sigma, c, want_c, w):
         return
     lnJ = math.log(J)
     inv_J = 1.0 / J
-    b = w[0]
-    matmul3_bt(F, F, b)
+    # bbar in w[0], dev tau in w[1], indexed in place: a view such as w[0]
+    # costs numba a reference-count pair per call
     f = math.exp(-2.0 / 3.0 * lnJ)          # J^(-2/3)
     for i in range(3):
         for j in range(3):
-            b[i, j] *= f
-    trb = trace3(b)
-    dev_tau = w[1]
+            s = 0.0
+            for k in range(3):
+                s += F[i, k] * F[j, k]
+            w[0, i, j] = s * f
+    trb = w[0, 0, 0] + w[0, 1, 1] + w[0, 2, 2]
     for i in range(3):
         for j in range(3):
-            dev_tau[i, j] = mu * (b[i, j] - (trb / 3.0 if i == j else 0.0))
-            sigma[i, j] = ((kappa * lnJ if i == j else 0.0) + dev_tau[i, j]) * inv_J
+            w[1, i, j] = mu * (w[0, i, j] - (trb / 3.0 if i == j else 0.0))
+            sigma[i, j] = ((kappa * lnJ if i == j else 0.0) + w[1, i, j]) * inv_J
     if want_c:
         # J c = (kappa - 2/3 mu_bar) I(x)I + 2 (mu_bar - kappa ln J) I_s
         #       - 2/3 (dev tau (x) I + I (x) dev tau),   mu_bar = mu tr(bbar)/3
@@ -94,7 +96,7 @@ def neo_hookean(F, mu, kappa, sigma, c, want_c, w):
         f = -2.0 / 3.0 * inv_J
         for i in range(3):
             for j in range(3):
-                t = f * dev_tau[i, j]
+                t = f * w[1, i, j]
                 for k in range(3):
                     c[i, j, k, k] += t
                     c[k, k, i, j] += t
