@@ -117,7 +117,7 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
                 sigma[p, a, b] = sp[a, b]
         for k in range(n_history):
             h_out[p, k] = ho[k]
-        if keep_c:
+        if keep_c and want_tangent:     # c_scratch holds this particle's tangent only then
             c[p] = c_scratch
         J_inc = det3(Fi)                 # full 3x3: thickness (plane stress), hoop (axisymmetric)
         if want_tangent:
