@@ -85,12 +85,20 @@ def migrate(comm, particle_set, destination):
 
 
 def sort_by_cell(pset, grid):
-    """Order particles by the (owned) cell that holds them, keeping the
-    order they had within a cell (a stable sort, so the order is a function
-    of the previous one), so that particles touching the same nodes are
-    neighbours in memory. Nothing moves when they already are."""
+    """Order particles by the nodes they touch, keeping the order they had
+    otherwise (a stable sort, so the order is a function of the previous
+    one): by the cell that holds them with linear shape functions, by their
+    nearest node with the wider ones (GIMP, B-splines: stencil width 2),
+    whose footprint is that node and its neighbours. Particles touching the
+    same nodes are then neighbours in memory (the tangent's kernel sums
+    them as one group). Nothing moves when they already are."""
     if len(pset):
-        key = grid.local_cell_index(grid.cell_of(pset["x"]))
+        shift = 0.5 if grid.stencil_width > 1 else 0.0
+        base = np.floor((pset["x"] - grid.lower) / grid.spacing + shift).astype(np.int64)
+        base = np.clip(base, 0, grid.cells)
+        key = base[:, -1]
+        for d in range(grid.dim - 2, -1, -1):
+            key = key * (grid.cells[d] + 1) + base[:, d]
         if np.all(key[1:] >= key[:-1]):
             return
         pset.take(np.argsort(key, kind="stable"))

@@ -179,26 +179,42 @@ def tangent_blocks(kinematics, axes, symmetric, node_index, active, S, G, radius
     :func:`evaluate_particles`. ``axes`` = tuple(range(dim)). ``symmetric``:
     the stiffness density has major symmetry (hyperelastic materials), so
     each particle's element matrix is symmetric and only the blocks on and
-    above its diagonal are computed, the others added as their transposes."""
+    above its diagonal are computed, the others added as their transposes.
+
+    Consecutive particles with the same footprint nodes (particles are
+    sorted by cell) are summed into one dense element matrix first, which
+    is then added into ``values`` once: the scattered additions and the
+    pattern look-ups are made per group, not per particle."""
     dim = len(axes)
     n, nn = S.shape
-    side = 2 * width + 1
     values[:] = 0.0
     Finv = np.zeros((3, 3))
     g = np.empty((nn, 3))
     B = np.empty((3, 3, 3))
     entry = np.empty(nn, dtype=np.int64)            # the particle's active footprint entries
-    ijk = np.empty((nn, 3), dtype=np.int64)
+    group_nodes = np.full(nn, -1, dtype=np.int64)   # the footprint of the group being summed
+    K = np.zeros((nn, dim, nn, dim))                # its element matrix (entries k, m of the footprint)
+    used = np.zeros((nn, nn), dtype=np.bool_)       # couplings some particle of the group has
+    Fi = np.empty((3, 3))
     axisymmetric = kinematics == AXISYMMETRIC
     for p in range(n):
+        same = True
+        for k in range(nn):
+            if node_index[p, k] != group_nodes[k]:
+                same = False
+                break
+        if not same:
+            _add_group(symmetric, group_nodes, K, used, node_ijk, width, indptr, slot_position, values, dim)
+            for k in range(nn):
+                group_nodes[k] = node_index[p, k]
         na = 0
         for k in range(nn):
             if active[p, k]:
                 entry[na] = k
-                for d in range(dim):
-                    ijk[na, d] = node_ijk[node_index[p, k], d]
                 na += 1
-        Fi = F_inc[p]
+        for a in range(3):
+            for b in range(3):
+                Fi[a, b] = F_inc[p, a, b]
         _in_plane_inverse(Fi, dim, Finv)
         for q in range(na):                     # g = F_inc^-T G: g_kd = G_kc Finv_cd
             k = entry[q]
@@ -207,58 +223,75 @@ def tangent_blocks(kinematics, axes, symmetric, node_index, active, S, G, radius
                 for cc in range(dim):
                     s += G[p, k, cc] * Finv[cc, d]
                 g[q, d] = s
-        tp = tangent[p]
         r = radius[p] * Fi[2, 2] if axisymmetric else 1.0
         for q in range(na):
-            i = node_index[p, entry[q]]
+            k = entry[q]
             for a in range(dim):                # B_abd = g_qc v a_acbd
                 for b in range(dim):
                     for d in range(dim):
                         s = 0.0
                         for cc in range(dim):
-                            s += g[q, cc] * tp[a, cc, b, d]
+                            s += g[q, cc] * tangent[p, a, cc, b, d]
                         B[a, b, d] = s
-            row = dim * dim * indptr[i]
-            stride = (indptr[i + 1] - indptr[i]) * dim   # from one component row to the next
-            for m in range(q if symmetric else 0, na):
-                slot = 0
-                for d in range(dim - 1, -1, -1):
-                    slot = slot * side + ijk[m, d] - ijk[q, d] + width
-                base = row + (slot_position[i, slot] - indptr[i]) * dim
-                mirror = symmetric and m != q
-                if mirror:                      # block (m, q) = block (q, m)^T
-                    j = node_index[p, entry[m]]
-                    slot = 0
-                    for d in range(dim - 1, -1, -1):
-                        slot = slot * side + ijk[q, d] - ijk[m, d] + width
-                    base_t = dim * dim * indptr[j] + (slot_position[j, slot] - indptr[j]) * dim
-                    stride_t = (indptr[j + 1] - indptr[j]) * dim
+            for t in range(q if symmetric else 0, na):
+                m = entry[t]
+                used[k, m] = True
                 for a in range(dim):
                     for b in range(dim):
                         s = 0.0
                         for d in range(dim):
-                            s += B[a, b, d] * g[m, d]
-                        values[base + a * stride + b] += s
-                        if mirror:
-                            values[base_t + b * stride_t + a] += s
+                            s += B[a, b, d] * g[t, d]
+                        K[k, a, m, b] += s
                 if axisymmetric:
-                    hp = hoop[p]
-                    wk = S[p, entry[q]] / r
-                    wm = S[p, entry[m]] / r
+                    wk = S[p, k] / r
+                    wm = S[p, m] / r
                     for b in range(dim):        # hoop row x in-plane column: w_k v c_22bd g_md
                         s = 0.0
                         for d in range(dim):
-                            s += hp[dim * b + d] * g[m, d]
-                        values[base + b] += wk * s
-                        if mirror:
-                            values[base_t + b * stride_t] += wk * s
+                            s += hoop[p, dim * b + d] * g[t, d]
+                        K[k, 0, m, b] += wk * s
                     for a in range(dim):        # in-plane row x hoop column: g_kc v c_ac22 w_m
                         s = 0.0
                         for cc in range(dim):
-                            s += g[q, cc] * hp[dim * dim + dim * a + cc]
-                        values[base + a * stride] += s * wm
-                        if mirror:
-                            values[base_t + a] += s * wm
-                    values[base] += wk * hp[2 * dim * dim] * wm
-                    if mirror:
-                        values[base_t] += wk * hp[2 * dim * dim] * wm
+                            s += g[q, cc] * hoop[p, dim * dim + dim * a + cc]
+                        K[k, a, m, 0] += s * wm
+                    K[k, 0, m, 0] += wk * hoop[p, 2 * dim * dim] * wm
+    _add_group(symmetric, group_nodes, K, used, node_ijk, width, indptr, slot_position, values, dim)
+
+
+@jit
+def _add_group(symmetric, nodes, K, used, node_ijk, width, indptr, slot_position, values, dim):
+    """Add one group's element matrix ``K`` (its couplings ``used``; with
+    ``symmetric``, only blocks k <= m are filled and block (m, k) is added
+    as the transpose of block (k, m)) into ``values``, and zero ``K`` and
+    ``used`` for the next group."""
+    nn = len(nodes)
+    side = 2 * width + 1
+    for k in range(nn):
+        i = nodes[k]
+        row = dim * dim * indptr[i]
+        stride = (indptr[i + 1] - indptr[i]) * dim   # from one component row to the next
+        for m in range(nn):
+            if not used[k, m]:
+                continue
+            used[k, m] = False
+            j = nodes[m]
+            slot = 0
+            for d in range(dim - 1, -1, -1):
+                slot = slot * side + node_ijk[j, d] - node_ijk[i, d] + width
+            base = row + (slot_position[i, slot] - indptr[i]) * dim
+            for a in range(dim):
+                for b in range(dim):
+                    values[base + a * stride + b] += K[k, a, m, b]
+            if symmetric and m != k:            # block (m, k) = block (k, m)^T
+                slot = 0
+                for d in range(dim - 1, -1, -1):
+                    slot = slot * side + node_ijk[i, d] - node_ijk[j, d] + width
+                base_t = dim * dim * indptr[j] + (slot_position[j, slot] - indptr[j]) * dim
+                stride_t = (indptr[j + 1] - indptr[j]) * dim
+                for a in range(dim):
+                    for b in range(dim):
+                        values[base_t + b * stride_t + a] += K[k, a, m, b]
+            for a in range(dim):
+                for b in range(dim):
+                    K[k, a, m, b] = 0.0
