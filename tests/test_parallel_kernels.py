@@ -58,6 +58,10 @@ def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, 
     # the matrix-free shell product equals the assembled Jacobian times a vector
     shell = float(re.search(r"shell_product_relative_error=(\S+)", proc.stdout).group(1))
     assert shell < 1e-8
+    # the COO assembly equals PETSc's MatSetValuesLocal one (to the order of summation);
+    # COO is in use wherever the formulation allows it (the velocity formulation)
+    assert float(re.search(r"coo_csr_difference=(\S+)", proc.stdout).group(1)) < 1e-14
+    assert ("coo_used=True" in proc.stdout) == ("momentum" not in kinematics)
 
 
 def test_transfers_conserve_mass_and_momentum_on_1_2_3_ranks():

@@ -15,7 +15,7 @@ Prescribed dofs are eliminated symmetrically: their rows are
 import numpy as np
 from petsc4py import PETSc
 
-from .. import faults, interrupt
+from .. import coo, faults, interrupt
 from ..kernels import particle_step
 from ..materials.base import youngs_modulus
 from ..stages import log_stage
@@ -117,6 +117,8 @@ class StepProblem:
         self.row_offset = self.diag.getOwnershipRange()[0]
         self.K = self.projection = None
         self.matrix_free = False         # the shell's product needs the full spatial tangent
+        #: the tangent on the step's pattern is assembled through COO (pimpm.coo)
+        self.coo = coo.available() and not momentum
 
     def begin(self, state, step=0):
         """Start solving a step (``step``: its 1-based number)."""
@@ -160,7 +162,7 @@ class StepProblem:
             self.projection.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
             self.projection.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
             return self.K.matMult(self.projection)
-        return pattern_matrix(self.grid, pattern)
+        return pattern_matrix(self.grid, pattern, self.coo)
 
     def destroy(self):
         for obj in (self.diag, self.K, self.projection):
@@ -264,20 +266,15 @@ class StepProblem:
         K = self.K if self.momentum else P
         pattern = st.pattern
         with self._stage("Assembly"):
-            K.zeroEntries()
-            if evaluation is not None and len(st.F_n):
-                values = st.extra.get("tangent_values")
-                if values is None:
-                    values = st.extra["tangent_values"] = np.empty(len(pattern.scalar_indices))
-                particle_step.tangent_blocks(
-                    st.kinematics.kernel_code, tuple(range(grid.dim)), self.symmetric_density, st.node_index,
-                    st.active, st.S, st.G,
-                    st.radius if st.radius is not None else _NO_RADIUS, evaluation.F_inc,
-                    evaluation.tangent, evaluation.hoop, grid.ghost_ijk,
-                    pattern.width, pattern.indptr, pattern.slot_position, values)
-                K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices, values,
-                                    addv=PETSc.InsertMode.ADD_VALUES)
-            K.assemble()
+            if evaluation is not None and self.coo:
+                # every rank hands PETSc its values, none or not (collective)
+                coo.set_values(K, self._tangent_values(evaluation))
+            else:
+                K.zeroEntries()
+                if evaluation is not None and len(st.F_n):
+                    K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
+                                        self._tangent_values(evaluation), addv=PETSc.InsertMode.ADD_VALUES)
+                K.assemble()
             if self.momentum:
                 assemble_projection(st, self.projection, self.diag, self.row_offset, grid.dim)
                 K.matMult(self.projection, result=P)        # d Fint / du = K R
@@ -292,28 +289,53 @@ class StepProblem:
             if J != P:
                 J.assemble()
 
+    def _tangent_values(self, evaluation):
+        """Every particle's stiffness blocks summed into the values of the
+        step's pattern (scalar CSR order; zeros on a rank with no particles)."""
+        st, grid = self.state, self.grid
+        pattern = st.pattern
+        values = st.extra.get("tangent_values")
+        if values is None:
+            values = st.extra["tangent_values"] = np.empty(len(pattern.scalar_indices))
+        if not len(st.F_n):
+            values[:] = 0.0
+            return values
+        particle_step.tangent_blocks(
+            st.kinematics.kernel_code, tuple(range(grid.dim)), self.symmetric_density, st.node_index,
+            st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS, evaluation.F_inc,
+            evaluation.tangent, evaluation.hoop, grid.ghost_ijk,
+            pattern.width, pattern.indptr, pattern.slot_position, values)
+        return values
 
-def pattern_matrix(grid, pattern):
+
+def pattern_matrix(grid, pattern, use_coo=False):
     """An AIJ matrix (block size dim, the DMDA's numbering) holding exactly
-    the couplings of ``pattern``: preallocated for the DMDA's box stencil,
-    filled with zeros on the pattern and assembled, which drops the unused
-    room; an entry outside the pattern afterwards is an error. Collective."""
+    the couplings of ``pattern``; an entry outside the pattern afterwards is
+    an error. ``use_coo``: preallocated for COO assembly in the order of the
+    pattern's values (:mod:`pimpm.coo`); otherwise preallocated for the
+    DMDA's box stencil, filled with zeros on the pattern and assembled,
+    which drops the unused room. Collective."""
     dim = grid.dim
     X = grid.da.createGlobalVec()
     sizes = (X.getLocalSize(), X.getSize())
     X.destroy()
-    own, other = grid.box_preallocation(pattern.width)
     J = PETSc.Mat().create(comm=grid.da.getComm())
     J.setSizes((sizes, sizes), bsize=dim)
     J.setType(PETSc.Mat.Type.AIJ)
-    J.setPreallocationNNZ((np.repeat(own * dim, dim).astype(PETSc.IntType),
-                           np.repeat(other * dim, dim).astype(PETSc.IntType)))
     lgmap = grid.da.getLGMap()
     J.setLGMap(lgmap, lgmap)
-    J.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
-                        np.zeros(len(pattern.scalar_indices)), addv=PETSc.InsertMode.ADD_VALUES)
-    J.assemble()
+    if use_coo:
+        rows = np.repeat(np.arange(len(pattern.scalar_indptr) - 1), np.diff(pattern.scalar_indptr))
+        coo.preallocate_local(J, rows, pattern.scalar_indices)
+        coo.set_values(J, np.zeros(len(rows)))
+    else:
+        own, other = grid.box_preallocation(pattern.width)
+        J.setPreallocationNNZ((np.repeat(own * dim, dim).astype(PETSc.IntType),
+                               np.repeat(other * dim, dim).astype(PETSc.IntType)))
+        J.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
+                            np.zeros(len(pattern.scalar_indices)), addv=PETSc.InsertMode.ADD_VALUES)
+        J.assemble()
+        # every assembly sends the same off-rank entries: keep the communication set-up
+        J.setOption(PETSc.Mat.Option.SUBSET_OFF_PROC_ENTRIES, True)
     J.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, True)
-    # every assembly sends the same off-rank entries: keep the communication set-up
-    J.setOption(PETSc.Mat.Option.SUBSET_OFF_PROC_ENTRIES, True)
     return J

@@ -122,6 +122,17 @@ difference.axpy(-1.0, transposed)
 asymmetry = difference.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
 difference.destroy()
 transposed.destroy()
+# The COO assembly (pimpm/coo.py) against PETSc's MatSetValuesLocal path
+coo_difference = 0.0
+if problem.coo:
+    from pimpm.implicit.problem import pattern_matrix
+    J_csr = pattern_matrix(problem.grid, state.pattern, use_coo=False)
+    problem.coo = False
+    problem.form_jacobian(None, X, J_csr, J_csr)
+    problem.coo = True
+    J_csr.axpy(-1.0, solver.J)
+    coo_difference = J_csr.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
+    J_csr.destroy()
 J_local = solver.J.convert("dense").getDenseArray().copy()   # owned rows x all columns
 
 free_local = ~state.fixed
@@ -180,6 +191,7 @@ shell_solver.destroy()
 
 if comm.rank == 0:
     print(f"shell_product_relative_error={shell_error:.3e}")
+    print(f"coo_used={problem.coo} coo_csr_difference={coo_difference:.3e}")
     print(f"jacobian_check {integrator} dim={sim.dim} shape={shape} ranks={comm.size} free_dofs={n_free} "
           f"formulation={'momentum' if momentum else 'velocity'} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok} "
