@@ -65,10 +65,9 @@ def yield_stress(alpha, tau0, h1, alpha_l, h2):
 
 
 @jit
-def neo_hookean(F, mu, kappa, sigma, c, want_c, w, c_dim):
+def neo_hookean(F, mu, kappa, sigma, c, want_c, w):
     """Uncoupled neo-Hookean, G&W eq. 18 and 21 (eq. 21 as J c, with the
-    effective 2 mu tr(bbar)/3); ``c`` only where its four indices are
-    below ``c_dim`` (2: the in-plane tangent of plane strain)."""
+    effective 2 mu tr(bbar)/3)."""
     J = det3(F)
     if not (J > 0.0):
         _fill_nan(sigma, c, want_c)
@@ -93,35 +92,33 @@ def neo_hookean(F, mu, kappa, sigma, c, want_c, w, c_dim):
         # J c = (kappa - 2/3 mu_bar) I(x)I + 2 (mu_bar - kappa ln J) I_s
         #       - 2/3 (dev tau (x) I + I (x) dev tau),   mu_bar = mu tr(bbar)/3
         mu_bar = mu * trb / 3.0
-        _isotropic_tangent(c, (kappa - 2.0 / 3.0 * mu_bar) * inv_J, 2.0 * (mu_bar - kappa * lnJ) * inv_J,
-                           c_dim)
+        _isotropic_tangent(c, (kappa - 2.0 / 3.0 * mu_bar) * inv_J, 2.0 * (mu_bar - kappa * lnJ) * inv_J)
         f = -2.0 / 3.0 * inv_J
-        for i in range(c_dim):
-            for j in range(c_dim):
+        for i in range(3):
+            for j in range(3):
                 t = f * w[1, i, j]
-                for k in range(c_dim):
+                for k in range(3):
                     c[i, j, k, k] += t
                     c[k, k, i, j] += t
 
 
 @jit
-def _isotropic_tangent(c, a, b, c_dim):
-    """c = a I(x)I + b I_s (I_s the symmetric fourth-order identity), where
-    the four indices are below ``c_dim``."""
-    for i in range(c_dim):
-        for j in range(c_dim):
-            for k in range(c_dim):
-                for m in range(c_dim):
+def _isotropic_tangent(c, a, b):
+    """c = a I(x)I + b I_s (I_s the symmetric fourth-order identity)."""
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                for m in range(3):
                     c[i, j, k, m] = 0.0
-    for i in range(c_dim):
-        for k in range(c_dim):
+    for i in range(3):
+        for k in range(3):
             c[i, i, k, k] += a
             c[i, k, i, k] += 0.5 * b
             c[i, k, k, i] += 0.5 * b
 
 
 @jit
-def neo_hookean_compressible(F, lam, mu, sigma, c, want_c, w, c_dim):
+def neo_hookean_compressible(F, lam, mu, sigma, c, want_c, w):
     """sigma = lam/2 (J - 1/J) I + mu/J (F F^T - I) and
     c = lam J I(x)I + (2 mu - lam (J^2 - 1)) / J I_s."""
     J = det3(F)
@@ -135,7 +132,7 @@ def neo_hookean_compressible(F, lam, mu, sigma, c, want_c, w, c_dim):
             d = 1.0 if i == j else 0.0
             sigma[i, j] = (0.5 * lam * (J * J - 1.0) * d + mu * (b[i, j] - d)) / J
     if want_c:
-        _isotropic_tangent(c, lam * J, (2.0 * mu - lam * (J * J - 1.0)) / J, c_dim)
+        _isotropic_tangent(c, lam * J, (2.0 * mu - lam * (J * J - 1.0)) / J)
 
 
 @jit
@@ -331,18 +328,17 @@ def j2_finite_strain(F, prm, h_in, h_out, sigma, c, want_c, w):
 
 
 @jit
-def material_point(model, prm, F, h_in, h_out, sigma, c, want_c, w, D, c_dim):
+def material_point(model, prm, F, h_in, h_out, sigma, c, want_c, w, D):
     """Stress ``sigma`` (3, 3), tangent ``c`` (3, 3, 3, 3; written only if
-    ``want_c``, and only where its four indices are below ``c_dim`` for the
-    models that can skip the rest) and history ``h_out`` after the deformation gradient ``F``
+    ``want_c``) and history ``h_out`` after the deformation gradient ``F``
     for the model ``model`` with packed parameters ``prm`` and history
     ``h_in`` committed at t. ``w``: (WORKSPACE, 3, 3) scratch; ``D``: (3, 3,
     3, 3) scratch. (Callers pass flags as values, not constants: numba would
     compile every model again for each constant.)"""
     if model == NEO_HOOKEAN:
-        neo_hookean(F, prm[0], prm[1], sigma, c, want_c, w, c_dim)
+        neo_hookean(F, prm[0], prm[1], sigma, c, want_c, w)
     elif model == NEO_HOOKEAN_COMPRESSIBLE:
-        neo_hookean_compressible(F, prm[1] - 2.0 / 3.0 * prm[0], prm[0], sigma, c, want_c, w, c_dim)
+        neo_hookean_compressible(F, prm[1] - 2.0 / 3.0 * prm[0], prm[0], sigma, c, want_c, w)
     elif model == LINEAR_ELASTIC or model == J2_SMALL_STRAIN:
         j2_small_strain(F, prm, h_in, h_out, model == J2_SMALL_STRAIN, sigma, c, want_c, w, D)
     else:
@@ -365,7 +361,7 @@ def update_points(models, params, material_of, F, h_in, h_out, sigma, c, want_c,
             solve_thickness(models[m], params[m], F[p], F_inc[p], h_in[p], h_out[p], sigma[p], cp,
                             want_c, w, D)
         else:
-            material_point(models[m], params[m], F[p], h_in[p], h_out[p], sigma[p], cp, want_c, w, D, 3)
+            material_point(models[m], params[m], F[p], h_in[p], h_out[p], sigma[p], cp, want_c, w, D)
 
 
 @jit
@@ -378,7 +374,7 @@ def solve_thickness(model, prm, F, F_inc, h_in, h_out, sigma, c, want_c, w, D):
     # does not compile material_point (every model) once more for a literal True
     need_c = want_c or not want_c
     for _ in range(50):
-        material_point(model, prm, F, h_in, h_out, sigma, c, need_c, w, D, 3)
+        material_point(model, prm, F, h_in, h_out, sigma, c, need_c, w, D)
         s33 = sigma[2, 2]
         big = 0.0
         for i in range(3):

@@ -58,9 +58,6 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
     D = np.empty((3, 3, 3, 3))
     c_scratch = np.empty((3, 3, 3, 3))
     keep_c = c.shape[0] > 0
-    # the tangent's components that are used: the in-plane ones, unless the
-    # hoop terms (axisymmetric) or the matrix-free product need them all
-    c_dim = dim if (kinematics == GENERAL and not keep_c) else 3
     grad = np.empty((3, 3))
     Finv = np.zeros((3, 3))
     P = np.empty((3, 3))
@@ -112,7 +109,7 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
         if kinematics == PLANE_STRESS:
             solve_thickness(models[m], prm, Fp, Fi, hi, ho, sp, c_scratch, want_tangent, w, D)
         else:
-            material_point(models[m], prm, Fp, hi, ho, sp, c_scratch, want_tangent, w, D, c_dim)
+            material_point(models[m], prm, Fp, hi, ho, sp, c_scratch, want_tangent, w, D)
         for a in range(3):
             for b in range(3):
                 F_inc[p, a, b] = Fi[a, b]
