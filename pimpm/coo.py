@@ -46,7 +46,8 @@ _LIB = None if _NATIVE or os.environ.get("PIMPM_NO_COO") else _loaded_libpetsc()
 
 def available():
     """Can matrices be assembled through COO here? (``PIMPM_NO_COO=1`` in
-    the environment turns it off: the tests compare both ways.)"""
+    the environment turns it off; tests/mpi/jacobian_check.py compares the
+    two assemblies.)"""
     if os.environ.get("PIMPM_NO_COO"):
         return False
     return _NATIVE or _LIB is not None

@@ -84,7 +84,7 @@ def migrate(comm, particle_set, destination):
     particle_set.fields = fields
 
 
-def sort_by_cell(pset, grid):
+def sort_by_footprint(pset, grid):
     """Order particles by the nodes they touch, keeping the order they had
     otherwise (a stable sort, so the order is a function of the previous
     one): by the cell that holds them with linear shape functions, by their

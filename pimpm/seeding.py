@@ -19,7 +19,7 @@ tests/test_formulations.py.)
 """
 import numpy as np
 
-from .particles import ParticleSet, sort_by_cell
+from .particles import ParticleSet, sort_by_footprint
 
 
 def _signed_distance_curved(points, geometry):
@@ -218,8 +218,8 @@ def seed_bodies(config, grid, kinematics, densities, history_fields):
         identity = name in ("deformation_gradient", "elastic_left_cauchy_green")
         initial = np.broadcast_to(np.eye(3), (n, 3, 3)) if identity else 0.0
         particles["h_" + name] = np.zeros((n,) + tuple(shape)) + initial
-    sort_by_cell(particles, grid)
-    sort_by_cell(rigid, grid)
+    sort_by_footprint(particles, grid)
+    sort_by_footprint(rigid, grid)
     return particles, rigid
 
 

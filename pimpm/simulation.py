@@ -29,7 +29,7 @@ from .loads import displacement as load_displacement
 from .loads import make_loads, particle_forces
 from .options import pimpm_option
 from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
-from .particles import ParticleSet, migrate, sort_by_cell
+from .particles import ParticleSet, migrate, sort_by_footprint
 from .seeding import overlapping_bodies, particles_per_body, seed_bodies
 from .shape import make_shape
 from .solver import DEFAULT_SOLVER_OPTIONS, NewtonSolver, diagnose_solver_options
@@ -126,7 +126,7 @@ class Simulation:
             if not checkpoint.same_ranks:
                 keep = self.grid.owner_of_cells(self.grid.cell_of(pset["x"])) == self.comm.rank
                 pset.take(np.flatnonzero(keep))
-                sort_by_cell(pset, self.grid)
+                sort_by_footprint(pset, self.grid)
             fields[name] = pset
         self.particles, self.rigid = fields["particles"], fields["rigid"]
         for load in self.loads:
@@ -486,7 +486,7 @@ class Simulation:
         for pset in (self.particles, self.rigid):
             dest = self.grid.owner_of_cells(self.grid.cell_of(pset["x"]))
             migrate(self.comm, pset, dest)
-            sort_by_cell(pset, self.grid)
+            sort_by_footprint(pset, self.grid)
         count = self.particles.global_count(self.comm)
         rigid_count = self.rigid.global_count(self.comm)
         mass = float(self.particles.global_sum(self.comm, "mass"))

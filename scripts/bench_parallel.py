@@ -96,8 +96,9 @@ def read_answer(out):
     return answer
 
 
-def run(tree, case, ranks, workdir, extra_env=None):
+def run(tree, case, ranks, workdir, extra_env=None, extra_options=()):
     config, options = case_input(tree, case)
+    options = options + list(extra_options)
     path = os.path.join(workdir, "case.yaml")
     with open(path, "w") as f:
         yaml.safe_dump(config, f)
@@ -164,6 +165,9 @@ def main():
     ap.add_argument("--imbalance-ranks", type=int, nargs="*", default=[3],
                     help="extra rank counts run once (current tree) for billet-quarter's imbalance")
     ap.add_argument("--json", default=os.path.join(ROOT, "docs", "bench_parallel.json"))
+    ap.add_argument("--current-options", default="",
+                    help="command-line options for the current tree's runs only, e.g. "
+                         "--current-options='-pimpm_weak_node_fraction 0' (a method the baseline lacks)")
     args = ap.parse_args()
     trees = {"baseline": worktree(args.baseline), "current": ROOT}
     rows = []
@@ -174,7 +178,8 @@ def main():
             for _ in range(args.repeats):
                 for name in names:                      # alternating
                     with tempfile.TemporaryDirectory() as workdir:
-                        runs[name].append(run(trees[name], case, ranks, workdir))
+                        extra = args.current_options.split() if name == "current" else ()
+                        runs[name].append(run(trees[name], case, ranks, workdir, extra_options=extra))
             row = {"case": case, "ranks": ranks, **{name: median_row(r) for name, r in runs.items()}}
             if "baseline" in row and "wall_s" in row["baseline"] and "wall_s" in row["current"]:
                 row["ratio"] = row["current"]["wall_s"] / row["baseline"]["wall_s"]
@@ -214,7 +219,8 @@ def main():
               f"{shares} | {memory} | {force} |")
     print(f"\nstart-up (one-step billet, 1 rank): cold {startup['cold_s']:.1f} s, warm {startup['warm_s']:.1f} s")
     with open(args.json, "w") as f:
-        json.dump({"baseline": args.baseline, "repeats": args.repeats, "rows": rows,
+        json.dump({"baseline": args.baseline, "repeats": args.repeats,
+                   "current_options": args.current_options, "rows": rows,
                    "start_up": startup}, f, indent=1)
     print(f"\nwritten: {args.json}")
 

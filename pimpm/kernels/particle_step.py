@@ -182,7 +182,8 @@ def tangent_blocks(kinematics, axes, symmetric, node_index, active, S, G, radius
     above its diagonal are computed, the others added as their transposes.
 
     Consecutive particles with the same footprint nodes (particles are
-    sorted by cell) are summed into one dense element matrix first, which
+    sorted by the nodes they touch: :func:`pimpm.particles.sort_by_footprint`)
+    are summed into one dense element matrix first, which
     is then added into ``values`` once: the scattered additions and the
     pattern look-ups are made per group, not per particle."""
     dim = len(axes)

@@ -8,9 +8,9 @@ block where it belongs without a search.
 
 The values are kept in the layout of the equivalent scalar CSR (row
 (i, a) holds the blocks of node row i, component row a, one after the
-other), so that PETSc takes them one scalar row per call
-(``MatSetValuesLocal``; :func:`scalar_csr` gives its indptr and indices)
-rather than one call per block.
+other; :func:`scalar_csr` gives its indptr and indices): PETSc takes them
+in one call as COO values in that order (:mod:`pimpm.coo`), or one scalar
+row per call (``MatSetValuesLocal``) where COO is not available.
 
 Nodes that no particle reaches (the empty background grid) only get their
 diagonal block: they are out of the coupled system and cost the direct
@@ -62,7 +62,7 @@ def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes
     mark = np.zeros((n_nodes, slots), dtype=np.bool_)
     n, nn = node_index.shape
     for p in range(n):
-        if p > 0:                       # particles sorted by cell: neighbours often share a footprint
+        if p > 0:                       # particles sorted by footprint: neighbours often share one
             same = True
             for k in range(nn):
                 if node_index[p, k] != node_index[p - 1, k] or active[p, k] != active[p - 1, k]:
