@@ -93,12 +93,10 @@ def sort_by_footprint(pset, grid):
     same nodes are then neighbours in memory (the tangent's kernel sums
     them as one group). Nothing moves when they already are."""
     if len(pset):
-        shift = 0.5 if grid.stencil_width > 1 else 0.0
-        base = np.floor((pset["x"] - grid.lower) / grid.spacing + shift).astype(np.int64)
-        base = np.clip(base, 0, grid.cells)
-        key = base[:, -1]
-        for d in range(grid.dim - 2, -1, -1):
-            key = key * (grid.cells[d] + 1) + base[:, d]
+        # the nearest node of x is the cell of x + h/2 (clipped: the last
+        # node's particles join the last cell's, only an ordering)
+        shift = 0.5 * grid.spacing if grid.stencil_width > 1 else 0.0
+        key = grid.global_cell_index(grid.cell_of(pset["x"] + shift))
         if np.all(key[1:] >= key[:-1]):
             return
         pset.take(np.argsort(key, kind="stable"))

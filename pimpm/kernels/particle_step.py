@@ -19,6 +19,7 @@ import numpy as np
 
 from .jit import jit
 from .material_point import WORKSPACE, material_point, solve_thickness
+from .pattern import stencil_slot
 from .small import det3, inv2, inv3, matmul3
 
 #: kinematics codes (pimpm.kinematics classes carry theirs)
@@ -267,7 +268,6 @@ def _add_group(symmetric, nodes, K, used, node_ijk, width, indptr, slot_position
     as the transpose of block (k, m)) into ``values``, and zero ``K`` and
     ``used`` for the next group."""
     nn = len(nodes)
-    side = 2 * width + 1
     for k in range(nn):
         i = nodes[k]
         row = dim * dim * indptr[i]
@@ -277,17 +277,12 @@ def _add_group(symmetric, nodes, K, used, node_ijk, width, indptr, slot_position
                 continue
             used[k, m] = False
             j = nodes[m]
-            slot = 0
-            for d in range(dim - 1, -1, -1):
-                slot = slot * side + node_ijk[j, d] - node_ijk[i, d] + width
-            base = row + (slot_position[i, slot] - indptr[i]) * dim
+            base = row + (slot_position[i, stencil_slot(i, j, node_ijk, dim, width)] - indptr[i]) * dim
             for a in range(dim):
                 for b in range(dim):
                     values[base + a * stride + b] += K[k, a, m, b]
             if symmetric and m != k:            # block (m, k) = block (k, m)^T
-                slot = 0
-                for d in range(dim - 1, -1, -1):
-                    slot = slot * side + node_ijk[i, d] - node_ijk[j, d] + width
+                slot = stencil_slot(j, i, node_ijk, dim, width)
                 base_t = dim * dim * indptr[j] + (slot_position[j, slot] - indptr[j]) * dim
                 stride_t = (indptr[j + 1] - indptr[j]) * dim
                 for a in range(dim):
