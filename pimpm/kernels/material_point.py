@@ -65,9 +65,10 @@ def yield_stress(alpha, tau0, h1, alpha_l, h2):
 
 
 @jit
-def neo_hookean(F, mu, kappa, sigma, c, want_c, w):
+def neo_hookean(F, mu, kappa, sigma, c, want_c, w, in_plane):
     """Uncoupled neo-Hookean, G&W eq. 18 and 21 (eq. 21 as J c, with the
-    effective 2 mu tr(bbar)/3)."""
+    effective 2 mu tr(bbar)/3). ``in_plane``: write only the entries of c
+    whose four indices are 0 or 1 (all that plane strain uses)."""
     J = det3(F)
     if not (J > 0.0):
         _fill_nan(sigma, c, want_c)
@@ -92,35 +93,51 @@ def neo_hookean(F, mu, kappa, sigma, c, want_c, w):
         # J c = (kappa - 2/3 mu_bar) I(x)I + 2 (mu_bar - kappa ln J) I_s
         #       - 2/3 (dev tau (x) I + I (x) dev tau),   mu_bar = mu tr(bbar)/3
         mu_bar = mu * trb / 3.0
-        _isotropic_tangent(c, (kappa - 2.0 / 3.0 * mu_bar) * inv_J, 2.0 * (mu_bar - kappa * lnJ) * inv_J)
-        f = -2.0 / 3.0 * inv_J
-        for i in range(3):
-            for j in range(3):
-                t = f * w[1, i, j]
-                for k in range(3):
-                    c[i, j, k, k] += t
-                    c[k, k, i, j] += t
+        a, b, f = (kappa - 2.0 / 3.0 * mu_bar) * inv_J, 2.0 * (mu_bar - kappa * lnJ) * inv_J, -2.0 / 3.0 * inv_J
+        # the axes as a tuple: its length is known when compiling, so the
+        # loops have fixed lengths (a run-time bound stops numba unrolling them)
+        if in_plane:
+            _uncoupled_tangent(c, a, b, f, w, (0, 1))
+        else:
+            _uncoupled_tangent(c, a, b, f, w, (0, 1, 2))
 
 
 @jit
-def _isotropic_tangent(c, a, b):
-    """c = a I(x)I + b I_s (I_s the symmetric fourth-order identity)."""
-    for i in range(3):
-        for j in range(3):
-            for k in range(3):
-                for m in range(3):
+def _uncoupled_tangent(c, a, b, f, w, axes):
+    """c = a I(x)I + b I_s + f (dev tau (x) I + I (x) dev tau), dev tau in
+    w[1], for the indices in ``axes``."""
+    _isotropic_tangent(c, a, b, axes)
+    n = len(axes)
+    for i in range(n):
+        for j in range(n):
+            t = f * w[1, i, j]
+            for k in range(n):
+                c[i, j, k, k] += t
+                c[k, k, i, j] += t
+
+
+@jit
+def _isotropic_tangent(c, a, b, axes):
+    """c = a I(x)I + b I_s (I_s the symmetric fourth-order identity), for
+    the indices in ``axes`` ((0, 1): the in-plane entries only)."""
+    n = len(axes)
+    for i in range(n):
+        for j in range(n):
+            for k in range(n):
+                for m in range(n):
                     c[i, j, k, m] = 0.0
-    for i in range(3):
-        for k in range(3):
+    for i in range(n):
+        for k in range(n):
             c[i, i, k, k] += a
             c[i, k, i, k] += 0.5 * b
             c[i, k, k, i] += 0.5 * b
 
 
 @jit
-def neo_hookean_compressible(F, lam, mu, sigma, c, want_c, w):
+def neo_hookean_compressible(F, lam, mu, sigma, c, want_c, w, in_plane):
     """sigma = lam/2 (J - 1/J) I + mu/J (F F^T - I) and
-    c = lam J I(x)I + (2 mu - lam (J^2 - 1)) / J I_s."""
+    c = lam J I(x)I + (2 mu - lam (J^2 - 1)) / J I_s (``in_plane``: as
+    :func:`neo_hookean`)."""
     J = det3(F)
     if not (J > 0.0):
         _fill_nan(sigma, c, want_c)
@@ -132,7 +149,11 @@ def neo_hookean_compressible(F, lam, mu, sigma, c, want_c, w):
             d = 1.0 if i == j else 0.0
             sigma[i, j] = (0.5 * lam * (J * J - 1.0) * d + mu * (b[i, j] - d)) / J
     if want_c:
-        _isotropic_tangent(c, lam * J, (2.0 * mu - lam * (J * J - 1.0)) / J)
+        a, b = lam * J, (2.0 * mu - lam * (J * J - 1.0)) / J
+        if in_plane:
+            _isotropic_tangent(c, a, b, (0, 1))
+        else:
+            _isotropic_tangent(c, a, b, (0, 1, 2))
 
 
 @jit
@@ -328,17 +349,20 @@ def j2_finite_strain(F, prm, h_in, h_out, sigma, c, want_c, w):
 
 
 @jit
-def material_point(model, prm, F, h_in, h_out, sigma, c, want_c, w, D):
+def material_point(model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
     """Stress ``sigma`` (3, 3), tangent ``c`` (3, 3, 3, 3; written only if
-    ``want_c``) and history ``h_out`` after the deformation gradient ``F``
-    for the model ``model`` with packed parameters ``prm`` and history
-    ``h_in`` committed at t. ``w``: (WORKSPACE, 3, 3) scratch; ``D``: (3, 3,
+    ``want_c``; with ``in_plane``, the neo-Hookean models write only the
+    entries whose indices are all 0 or 1, which is all plane strain uses)
+    and history ``h_out`` after the deformation gradient ``F`` for the
+    model ``model`` with packed parameters ``prm`` and history ``h_in``
+    committed at t. ``w``: (WORKSPACE, 3, 3) scratch; ``D``: (3, 3,
     3, 3) scratch. (Callers pass flags as values, not constants: numba would
     compile every model again for each constant.)"""
     if model == NEO_HOOKEAN:
-        neo_hookean(F, prm[0], prm[1], sigma, c, want_c, w)
+        neo_hookean(F, prm[0], prm[1], sigma, c, want_c, w, in_plane)
     elif model == NEO_HOOKEAN_COMPRESSIBLE:
-        neo_hookean_compressible(F, prm[1] - 2.0 / 3.0 * prm[0], prm[0], sigma, c, want_c, w)
+        neo_hookean_compressible(F, prm[1] - 2.0 / 3.0 * prm[0], prm[0], sigma, c, want_c, w,
+                                 in_plane)
     elif model == LINEAR_ELASTIC or model == J2_SMALL_STRAIN:
         j2_small_strain(F, prm, h_in, h_out, model == J2_SMALL_STRAIN, sigma, c, want_c, w, D)
     else:
@@ -361,7 +385,9 @@ def update_points(models, params, material_of, F, h_in, h_out, sigma, c, want_c,
             solve_thickness(models[m], params[m], F[p], F_inc[p], h_in[p], h_out[p], sigma[p], cp,
                             want_c, w, D)
         else:
-            material_point(models[m], params[m], F[p], h_in[p], h_out[p], sigma[p], cp, want_c, w, D)
+            # every entry of c (False as a value, not a constant: see material_point)
+            material_point(models[m], params[m], F[p], h_in[p], h_out[p], sigma[p], cp, want_c, w, D,
+                           plane_stress)
 
 
 @jit
@@ -373,8 +399,9 @@ def solve_thickness(model, prm, F, F_inc, h_in, h_out, sigma, c, want_c, w, D):
     # every iteration needs c_3333; a flag that is not a constant, so that numba
     # does not compile material_point (every model) once more for a literal True
     need_c = want_c or not want_c
+    in_plane = not need_c        # every entry of c: the condensation needs c_ab33, c_33cd
     for _ in range(50):
-        material_point(model, prm, F, h_in, h_out, sigma, c, need_c, w, D)
+        material_point(model, prm, F, h_in, h_out, sigma, c, need_c, w, D, in_plane)
         s33 = sigma[2, 2]
         big = 0.0
         for i in range(3):

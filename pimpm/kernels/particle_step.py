@@ -59,6 +59,10 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
     D = np.empty((3, 3, 3, 3))
     c_scratch = np.empty((3, 3, 3, 3))
     keep_c = c.shape[0] > 0
+    # plane strain uses only the in-plane entries of the material tangent;
+    # the hoop terms (axisymmetric), the thickness solve (plane stress) and
+    # the matrix-free product (keep_c) use them all
+    in_plane = dim == 2 and kinematics == GENERAL and not keep_c
     grad = np.empty((3, 3))
     Finv = np.zeros((3, 3))
     P = np.empty((3, 3))
@@ -110,7 +114,7 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
         if kinematics == PLANE_STRESS:
             solve_thickness(models[m], prm, Fp, Fi, hi, ho, sp, c_scratch, want_tangent, w, D)
         else:
-            material_point(models[m], prm, Fp, hi, ho, sp, c_scratch, want_tangent, w, D)
+            material_point(models[m], prm, Fp, hi, ho, sp, c_scratch, want_tangent, w, D, in_plane)
         for a in range(3):
             for b in range(3):
                 F_inc[p, a, b] = Fi[a, b]
