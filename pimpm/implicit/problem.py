@@ -266,15 +266,17 @@ class StepProblem:
         K = self.K if self.momentum else P
         pattern = st.pattern
         with self._stage("Assembly"):
-            if evaluation is not None and self.coo:
+            if self.coo:
                 # every rank hands PETSc its values, none or not (collective)
-                coo.set_values(K, self._tangent_values(evaluation))
-            else:
-                K.zeroEntries()
-                if evaluation is not None and len(st.F_n):
-                    K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
-                                        self._tangent_values(evaluation), addv=PETSc.InsertMode.ADD_VALUES)
-                K.assemble()
+                coo.set_values(P, self._jacobian_values(evaluation))
+                if J != P:
+                    J.assemble()
+                return
+            K.zeroEntries()
+            if evaluation is not None and len(st.F_n):
+                K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
+                                    self._tangent_values(evaluation), addv=PETSc.InsertMode.ADD_VALUES)
+            K.assemble()
             if self.momentum:
                 assemble_projection(st, self.projection, self.diag, self.row_offset, grid.dim)
                 K.matMult(self.projection, result=P)        # d Fint / du = K R
@@ -288,6 +290,54 @@ class StepProblem:
             P.scale(1.0 / self.residual_scale)
             if J != P:
                 J.assemble()
+
+    def _jacobian_values(self, evaluation):
+        """This rank's COO values of the whole Jacobian: the tangent blocks
+        (zeros if a particle inverted), times the HHT factor, plus the mass
+        term on owned diagonals, with the prescribed rows and columns
+        eliminated (zeros, and ``constraint_scale`` on the owner's
+        diagonal), all over ``residual_scale``. What MatScale, MatSetDiagonal
+        and MatZeroRowsColumns do to the summed matrix in the CSR path,
+        done on this rank's share before PETSc sums the shares: equal to
+        round-off (bitwise on one rank), without their communication."""
+        st = self.state
+        if evaluation is None:
+            values = np.zeros(len(st.pattern.scalar_indices))
+        else:
+            values = self._tangent_values(evaluation)
+        zero, owned_diagonal, fixed_diagonal = self._constraint_positions()
+        if st.integrator.stiffness_factor != 1.0:       # HHT: (1 + alpha) K
+            values *= st.integrator.stiffness_factor
+        if st.dynamic:
+            values[owned_diagonal] += st.mass_coefficient * st.mass
+        values[zero] = 0.0
+        values[fixed_diagonal] = st.constraint_scale
+        values *= 1.0 / self.residual_scale
+        return values
+
+    def _constraint_positions(self):
+        """Positions in this step's COO values of the entries in a prescribed
+        row or column (ghost nodes included), of every owned dof's diagonal
+        (owned order; the pattern keeps them all) and of the prescribed
+        owned dofs' diagonals. Made at the step's first Jacobian (collective:
+        the prescribed ghost dofs come from their owners)."""
+        st, grid = self.state, self.grid
+        positions = st.extra.get("constraint_positions")
+        if positions is None:
+            pattern = st.pattern
+            n_dofs = len(pattern.scalar_indptr) - 1
+            rows = np.repeat(np.arange(n_dofs), np.diff(pattern.scalar_indptr))
+            cols = pattern.scalar_indices
+            fixed = grid.owned_to_local(st.fixed.astype(float)).reshape(-1) > 0.5
+            zero = np.nonzero(fixed[rows] | fixed[cols])[0]
+            diagonal = np.full(n_dofs, -1, dtype=np.int64)
+            on_diagonal = np.nonzero(rows == cols)[0]
+            diagonal[rows[on_diagonal]] = on_diagonal
+            owned_dofs = (grid.owned_local_nodes[:, None] * grid.dim + np.arange(grid.dim)).reshape(-1)
+            owned_diagonal = diagonal[owned_dofs]
+            positions = st.extra["constraint_positions"] = (zero, owned_diagonal,
+                                                            owned_diagonal[st.fixed])
+        return positions
 
     def _tangent_values(self, evaluation):
         """Every particle's stiffness blocks summed into the values of the
