@@ -179,6 +179,11 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
         assert relative(ev.c, c) < 1e-10
     assert relative(ev.tangent, volume[:, None, None, None, None]
                     * assembly.spatial_tangent(sigma, c, dim)) < 1e-10
+    # without the full c kept (the assembled path), plane strain computes only the
+    # in-plane entries of the neo-Hookean tangent: the same stiffness density
+    in_plane = ParticleEvaluation(st, grid.n_local_nodes, dim)
+    in_plane.evaluate(st, u, dim)
+    assert np.array_equal(in_plane.tangent, ev.tangent) and np.array_equal(in_plane.sigma, ev.sigma)
     new = st.committed_history(ev.history)
     for name in st.materials.groups[0][0].history:
         assert relative(new[name], history[name]) < 1e-10, name
@@ -187,7 +192,7 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
     symmetric_options = (False, True) if st.materials.groups[0][0].symmetric_tangent else (False,)
     for symmetric in symmetric_options:     # half the element matrix, mirrored, where it is symmetric
         particle_step.tangent_blocks(
-            st.kinematics.kernel_code, tuple(range(dim)), symmetric, st.node_index, st.active, st.S,
+            st.kinematics.kernel_code, tuple(range(dim)), tuple(range(nn)), symmetric, st.node_index, st.active, st.S,
             st.G, st.radius if st.radius is not None else np.zeros(0), ev.F_inc, ev.tangent, ev.hoop,
             grid.ghost_ijk, pattern.width, pattern.indptr, pattern.slot_position, values)
         compiled = np.zeros_like(dense)

@@ -351,7 +351,8 @@ class StepProblem:
             values[:] = 0.0
             return values
         particle_step.tangent_blocks(
-            st.kinematics.kernel_code, tuple(range(grid.dim)), self.symmetric_density, st.node_index,
+            st.kinematics.kernel_code, tuple(range(grid.dim)), tuple(range(st.S.shape[1])),
+            self.symmetric_density, st.node_index,
             st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS, evaluation.F_inc,
             evaluation.tangent, evaluation.hoop, grid.ghost_ijk,
             pattern.width, pattern.indptr, pattern.slot_position, values)

@@ -14,11 +14,14 @@ from ..simulation import Simulation  # noqa: E402
 from .jit import CACHE_DIRECTORY  # noqa: E402
 
 
-def tiny(dim):
-    """A small block pressed by a platen: one step uses every implicit kernel."""
+def tiny(dim, shape_functions):
+    """A small block pressed by a platen: one step uses every implicit kernel
+    (the tangent's is compiled per footprint size: linear shape functions
+    touch 2^dim nodes, GIMP and B-splines 3^dim)."""
     upper, cells = ([2.0, 2.0], [4, 4]) if dim == 2 else ([2.0, 2.0, 2.0], [2, 2, 3])
     body_upper = [1.0] * (dim - 1) + [1.0]
-    return {"grid": {"lower": [0.0] * dim, "upper": upper, "cells": cells},
+    return {"grid": {"lower": [0.0] * dim, "upper": upper, "cells": cells,
+                     "shape_functions": shape_functions},
             "materials": {"m": {"model": "neo_hookean", "shear_modulus": 1.0, "bulk_modulus": 3.0,
                                 "density": 1.0}},
             "bodies": [{"name": "block", "material": "m", "particles_per_cell": 2,
@@ -33,9 +36,10 @@ def tiny(dim):
 def main():
     start = time.perf_counter()
     for dim in (2, 3):
-        sim = Simulation(validate(tiny(dim)), MPI.COMM_SELF)
-        sim.advance(1.0)
-        sim.solver.destroy()
+        for shape_functions in ("linear", "gimp"):
+            sim = Simulation(validate(tiny(dim, shape_functions)), MPI.COMM_SELF)
+            sim.advance(1.0)
+            sim.solver.destroy()
     print(f"pimpm: kernels compiled in {time.perf_counter() - start:.1f} s "
           f"(cache: {CACHE_DIRECTORY})")
 

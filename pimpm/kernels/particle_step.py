@@ -174,14 +174,18 @@ def _hoop_terms(c, sigma, v, dim, out):
 
 
 @jit
-def tangent_blocks(kinematics, axes, symmetric, node_index, active, S, G, radius, F_inc, tangent,
+def tangent_blocks(kinematics, axes, footprint, symmetric, node_index, active, S, G, radius, F_inc, tangent,
                    hoop, node_ijk, width, indptr, slot_position, values):
     """Add every particle's stiffness blocks (G&W step 3, module docstring)
     into ``values`` (zeroed here): the row-oriented values of the block CSR
     ``indptr``/``slot_position`` of :func:`pimpm.kernels.pattern.block_pattern`
     (``node_ijk``: each ghosted-local node's multi-index; ``width``: the
     pattern's stencil half-width). ``tangent`` and ``hoop`` come from
-    :func:`evaluate_particles`. ``axes`` = tuple(range(dim)). ``symmetric``:
+    :func:`evaluate_particles`. ``axes`` = tuple(range(dim)) and ``footprint``
+    = tuple(range(nodes per particle)): their lengths are known when
+    compiling, so the loops over them have fixed lengths (measured: the
+    linear billet's tangent 16% faster than with the footprint's length
+    read at run time; one compiled version per footprint size). ``symmetric``:
     the stiffness density has major symmetry (hyperelastic materials), so
     each particle's element matrix is symmetric and only the blocks on and
     above its diagonal are computed, the others added as their transposes.
@@ -192,12 +196,12 @@ def tangent_blocks(kinematics, axes, symmetric, node_index, active, S, G, radius
     is then added into ``values`` once: the scattered additions and the
     pattern look-ups are made per group, not per particle."""
     dim = len(axes)
-    n, nn = S.shape
+    nn = len(footprint)
+    n = S.shape[0]
     values[:] = 0.0
     Finv = np.zeros((3, 3))
     g = np.empty((nn, 3))
     B = np.empty((3, 3, 3))
-    entry = np.empty(nn, dtype=np.int64)            # the particle's active footprint entries
     group_nodes = np.full(nn, -1, dtype=np.int64)   # the footprint of the group being summed
     K = np.zeros((nn, dim, nn, dim))                # its element matrix (entries k, m of the footprint)
     used = np.zeros((nn, nn), dtype=np.bool_)       # couplings some particle of the group has
@@ -213,40 +217,36 @@ def tangent_blocks(kinematics, axes, symmetric, node_index, active, S, G, radius
             _add_group(symmetric, group_nodes, K, used, node_ijk, width, indptr, slot_position, values, dim)
             for k in range(nn):
                 group_nodes[k] = node_index[p, k]
-        na = 0
-        for k in range(nn):
-            if active[p, k]:
-                entry[na] = k
-                na += 1
         for a in range(3):
             for b in range(3):
                 Fi[a, b] = F_inc[p, a, b]
         _in_plane_inverse(Fi, dim, Finv)
-        for q in range(na):                     # g = F_inc^-T G: g_kd = G_kc Finv_cd
-            k = entry[q]
+        for k in range(nn):                     # g = F_inc^-T G: g_kd = G_kc Finv_cd (0 if inactive)
             for d in range(dim):
                 s = 0.0
                 for cc in range(dim):
                     s += G[p, k, cc] * Finv[cc, d]
-                g[q, d] = s
+                g[k, d] = s
         r = radius[p] * Fi[2, 2] if axisymmetric else 1.0
-        for q in range(na):
-            k = entry[q]
-            for a in range(dim):                # B_abd = g_qc v a_acbd
+        for k in range(nn):
+            if not active[p, k]:
+                continue
+            for a in range(dim):                # B_abd = g_kc v a_acbd
                 for b in range(dim):
                     for d in range(dim):
                         s = 0.0
                         for cc in range(dim):
-                            s += g[q, cc] * tangent[p, a, cc, b, d]
+                            s += g[k, cc] * tangent[p, a, cc, b, d]
                         B[a, b, d] = s
-            for t in range(q if symmetric else 0, na):
-                m = entry[t]
+            for m in range(k if symmetric else 0, nn):
+                if not active[p, m]:
+                    continue
                 used[k, m] = True
                 for a in range(dim):
                     for b in range(dim):
                         s = 0.0
                         for d in range(dim):
-                            s += B[a, b, d] * g[t, d]
+                            s += B[a, b, d] * g[m, d]
                         K[k, a, m, b] += s
                 if axisymmetric:
                     wk = S[p, k] / r
@@ -254,12 +254,12 @@ def tangent_blocks(kinematics, axes, symmetric, node_index, active, S, G, radius
                     for b in range(dim):        # hoop row x in-plane column: w_k v c_22bd g_md
                         s = 0.0
                         for d in range(dim):
-                            s += hoop[p, dim * b + d] * g[t, d]
+                            s += hoop[p, dim * b + d] * g[m, d]
                         K[k, 0, m, b] += wk * s
                     for a in range(dim):        # in-plane row x hoop column: g_kc v c_ac22 w_m
                         s = 0.0
                         for cc in range(dim):
-                            s += g[q, cc] * hoop[p, dim * dim + dim * a + cc]
+                            s += g[k, cc] * hoop[p, dim * dim + dim * a + cc]
                         K[k, a, m, 0] += s * wm
                     K[k, 0, m, 0] += wk * hoop[p, 2 * dim * dim] * wm
     _add_group(symmetric, group_nodes, K, used, node_ijk, width, indptr, slot_position, values, dim)
