@@ -326,8 +326,7 @@ class StepProblem:
         if positions is None:
             pattern = st.pattern
             n_dofs = len(pattern.scalar_indptr) - 1
-            rows = np.repeat(np.arange(n_dofs), np.diff(pattern.scalar_indptr))
-            cols = pattern.scalar_indices
+            rows, cols = pattern.scalar_rows, pattern.scalar_indices
             fixed = grid.owned_to_local(st.fixed.astype(float)).reshape(-1) > 0.5
             zero = np.nonzero(fixed[rows] | fixed[cols])[0]
             diagonal = np.full(n_dofs, -1, dtype=np.int64)
@@ -376,9 +375,8 @@ def pattern_matrix(grid, pattern, use_coo=False):
     lgmap = grid.da.getLGMap()
     J.setLGMap(lgmap, lgmap)
     if use_coo:
-        rows = np.repeat(np.arange(len(pattern.scalar_indptr) - 1), np.diff(pattern.scalar_indptr))
-        coo.preallocate_local(J, rows, pattern.scalar_indices)
-        coo.set_values(J, np.zeros(len(rows)))
+        coo.preallocate_local(J, pattern.scalar_rows, pattern.scalar_indices)
+        coo.set_values(J, np.zeros(len(pattern.scalar_indices)))
     else:
         own, other = grid.box_preallocation(pattern.width)
         J.setPreallocationNNZ((np.repeat(own * dim, dim).astype(PETSc.IntType),

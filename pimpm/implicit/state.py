@@ -3,6 +3,7 @@ steps 1-2): the particle footprint on the reset grid, the grid state
 interpolated from the particles, the constraints, the integrator and the
 kinematics of the step."""
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -91,3 +92,9 @@ class TangentPattern:
     slot_position: np.ndarray
     scalar_indptr: np.ndarray
     scalar_indices: np.ndarray
+
+    @cached_property
+    def scalar_rows(self):
+        """The scalar row (ghosted-local dof) of each value: with
+        ``scalar_indices``, the values' (row, column) pairs."""
+        return np.repeat(np.arange(len(self.scalar_indptr) - 1), np.diff(self.scalar_indptr))
