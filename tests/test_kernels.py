@@ -212,6 +212,51 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
     assert np.all(np.diff(pattern.indices)[np.diff(block_rows) == 0] > 0)     # sorted rows
 
 
+def test_a_table_of_several_models_dispatches_each_particle_to_its_own():
+    """Two bodies of different models: the particle kernel compiles every model
+    in and dispatches per particle (MIXED); a table of one model compiles only
+    that one. Both equal the numpy models."""
+    raw = {"grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8]},
+           "materials": {"soft": {"model": "neo_hookean", "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
+                                  "density": 10.0},
+                         "metal": {"model": "j2_finite_strain", "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
+                                   "density": 10.0, "yield_stress": 2.0e5, "hardening_modulus": 1.0e6}},
+           "bodies": [{"name": "a", "material": "soft", "particles_per_cell": 2, "velocity": [1.0, 2.0],
+                       "geometry": {"type": "box", "lower": [0.5, 0.5], "upper": [2.0, 2.5]}},
+                      {"name": "b", "material": "metal", "particles_per_cell": 2, "velocity": [-1.0, 2.0],
+                       "geometry": {"type": "box", "lower": [2.5, 0.5], "upper": [4.0, 2.5]}}],
+           "time": {"integrator": "newmark", "dt": 0.01, "end_time": 1.0}}
+    sim = Simulation(validate(raw), MPI.COMM_SELF)
+    sim.advance(0.01)
+    st, _ = sim.prepare_step(0.01)
+    assert st.materials.only_model == mp.model_tag(mp.MIXED) == ()
+    u = 0.05 * RNG.standard_normal((sim.grid.n_local_nodes, 2))
+    grad = gradient_at_particles(st.node_index, st.G, u)
+    F = np.matmul(st.kinematics.deformation_increment(grad, st.radius, None), st.F_n)
+    sigma, c, history = update_stress(st.material_groups, st.kinematics, F, st.history, True)
+    sim.problem.begin(st)
+    mixed = ParticleEvaluation(st, sim.grid.n_local_nodes, 2, full_tangent=True)
+    mixed.evaluate(st, u, 2)
+    assert relative(mixed.sigma, sigma) < 1e-10 and relative(mixed.c, c) < 1e-10
+    new = st.committed_history(mixed.history)
+    assert relative(new["eq_plastic_strain"], history["eq_plastic_strain"]) < 1e-10
+    assert np.sum(new["eq_plastic_strain"] > 0) > 0           # the plastic branch is exercised
+    # the metal's particles alone, through the kernel compiled for its model only
+    metal = st.material_groups[1][1]
+    assert np.all(st.materials.models[st.materials.material_of[metal]] == mp.J2_FINITE_STRAIN)
+    table = MaterialTable([(st.material_groups[1][0], np.arange(len(metal)))], len(metal))
+    assert table.only_model == mp.model_tag(mp.J2_FINITE_STRAIN)
+    out = [np.empty((len(metal), 3, 3)) for _ in range(3)]
+    h_out = np.empty((len(metal), table.width))
+    particle_step.evaluate_particles(
+        st.kinematics.kernel_code, (0, 1), u, st.node_index[metal], st.active[metal], st.S[metal],
+        st.G[metal], np.zeros(0), st.F_n[metal], st.volume_n[metal], table.only_model, table.models,
+        table.params, table.material_of, st.history_packed[metal][:, :table.width], True, False,
+        out[0], out[1], out[2], h_out, np.empty((sim.grid.n_local_nodes, 2)),
+        np.empty((len(metal), 2, 2, 2, 2)), np.empty((0, 9)), np.empty((0, 3, 3, 3, 3)))
+    assert np.array_equal(out[2], mixed.sigma[metal])
+
+
 def test_a_particle_increment_that_inverts_is_counted():
     sim, st = small_simulation("plane_strain", "linear", "neo_hookean")
     sim.problem.begin(st)

@@ -76,7 +76,7 @@ class ParticleEvaluation:
         self.inverted = particle_step.evaluate_particles(
             st.kinematics.kernel_code, tuple(range(dim)), u_local, st.node_index, st.active, st.S, st.G,
             st.radius if st.radius is not None else _NO_RADIUS, st.F_n, st.volume_n,
-            mt.models, mt.params, mt.material_of, st.history_packed, True, True,
+            mt.only_model, mt.models, mt.params, mt.material_of, st.history_packed, True, True,
             self.F_inc, self.F, self.sigma, self.history, self.force, self.tangent, self.hoop, self.c)
         self.u = u_local.copy()
 

@@ -1,6 +1,8 @@
-"""``python -m pimpm.kernels``: compile every kernel once (2D and 3D), so that
-the first run after installing does not wait for numba; scripts/setup.sh runs
-it. Compiled code is cached on disk (:mod:`pimpm.kernels.jit`)."""
+"""``python -m pimpm.kernels``: compile every kernel once (2D and 3D, every
+material model), so that the first run after installing does not wait for
+numba; scripts/setup.sh runs it. Compiled code is cached on disk
+(:mod:`pimpm.kernels.jit`). (A problem whose materials mix several models
+compiles its own particle kernel at its first run.)"""
 import sys
 import time
 
@@ -14,7 +16,13 @@ from ..simulation import Simulation  # noqa: E402
 from .jit import CACHE_DIRECTORY  # noqa: E402
 
 
-def tiny(dim, shape_functions):
+#: one material of each model (the particle kernel is compiled per model)
+MATERIALS = [{"model": "neo_hookean"}, {"model": "neo_hookean_compressible"},
+             {"model": "linear_elastic"}, {"model": "j2_small_strain", "yield_stress": 0.1},
+             {"model": "j2_finite_strain", "yield_stress": 0.1}]
+
+
+def tiny(dim, shape_functions, material):
     """A small block pressed by a platen: one step uses every implicit kernel
     (the tangent's is compiled per footprint size: linear shape functions
     touch 2^dim nodes, GIMP and B-splines 3^dim)."""
@@ -22,8 +30,7 @@ def tiny(dim, shape_functions):
     body_upper = [1.0] * (dim - 1) + [1.0]
     return {"grid": {"lower": [0.0] * dim, "upper": upper, "cells": cells,
                      "shape_functions": shape_functions},
-            "materials": {"m": {"model": "neo_hookean", "shear_modulus": 1.0, "bulk_modulus": 3.0,
-                                "density": 1.0}},
+            "materials": {"m": dict(material, shear_modulus=1.0, bulk_modulus=3.0, density=1.0)},
             "bodies": [{"name": "block", "material": "m", "particles_per_cell": 2,
                         "geometry": {"type": "box", "lower": [0.0] * dim, "upper": body_upper}},
                        {"name": "platen", "rigid": True, "particles_per_cell": 2,
@@ -35,9 +42,10 @@ def tiny(dim, shape_functions):
 
 def main():
     start = time.perf_counter()
+    runs = [("linear", material) for material in MATERIALS] + [("gimp", MATERIALS[0])]
     for dim in (2, 3):
-        for shape_functions in ("linear", "gimp"):
-            sim = Simulation(validate(tiny(dim, shape_functions)), MPI.COMM_SELF)
+        for shape_functions, material in runs:
+            sim = Simulation(validate(tiny(dim, shape_functions, material)), MPI.COMM_SELF)
             sim.advance(1.0)
             sim.solver.destroy()
     print(f"pimpm: kernels compiled in {time.perf_counter() - start:.1f} s "

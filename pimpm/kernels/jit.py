@@ -53,4 +53,6 @@ if CACHE_DIRECTORY is not None:
     # read when each cached kernel below is decorated (before any of them is)
     numba.config.CACHE_DIR = CACHE_DIRECTORY
 
-jit = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", nogil=True)
+#: the compiler options of every kernel (also those of numba.extending.overload's)
+JIT_OPTIONS = {"error_model": "numpy", "nogil": True}
+jit = numba.njit(cache=CACHE_DIRECTORY is not None, **JIT_OPTIONS)

@@ -24,10 +24,14 @@ import math
 
 import numpy as np
 
-from .jit import jit
+from numba.extending import overload
+
+from .jit import JIT_OPTIONS, jit
 from .small import det3, inv3, matmul3, matmul3_bt, trace3
 
 NEO_HOOKEAN, NEO_HOOKEAN_COMPRESSIBLE, LINEAR_ELASTIC, J2_SMALL_STRAIN, J2_FINITE_STRAIN = range(5)
+#: a kernel's ``only`` argument when the particles' materials use several models
+MIXED = -1
 #: number of scratch 3x3 matrices :func:`material_point` needs
 WORKSPACE = 8
 SQ23 = math.sqrt(2.0 / 3.0)
@@ -349,6 +353,38 @@ def j2_finite_strain(F, prm, h_in, h_out, sigma, c, want_c, w):
 
 
 @jit
+def _neo_hookean_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    neo_hookean(F, prm[0], prm[1], sigma, c, want_c, w, in_plane)
+
+
+@jit
+def _neo_hookean_compressible_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    neo_hookean_compressible(F, prm[1] - 2.0 / 3.0 * prm[0], prm[0], sigma, c, want_c, w, in_plane)
+
+
+@jit
+def _linear_elastic_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    j2_small_strain(F, prm, h_in, h_out, False, sigma, c, want_c, w, D)
+
+
+@jit
+def _j2_small_strain_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    j2_small_strain(F, prm, h_in, h_out, True, sigma, c, want_c, w, D)
+
+
+@jit
+def _j2_finite_strain_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    j2_finite_strain(F, prm, h_in, h_out, sigma, c, want_c, w)
+
+
+#: each model's material point, by code
+POINTS = {NEO_HOOKEAN: _neo_hookean_point,
+          NEO_HOOKEAN_COMPRESSIBLE: _neo_hookean_compressible_point,
+          LINEAR_ELASTIC: _linear_elastic_point, J2_SMALL_STRAIN: _j2_small_strain_point,
+          J2_FINITE_STRAIN: _j2_finite_strain_point}
+
+
+@jit
 def material_point(model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
     """Stress ``sigma`` (3, 3), tangent ``c`` (3, 3, 3, 3; written only if
     ``want_c``; with ``in_plane``, the neo-Hookean models write only the
@@ -357,16 +393,50 @@ def material_point(model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane)
     model ``model`` with packed parameters ``prm`` and history ``h_in``
     committed at t. ``w``: (WORKSPACE, 3, 3) scratch; ``D``: (3, 3,
     3, 3) scratch. (Callers pass flags as values, not constants: numba would
-    compile every model again for each constant.)"""
+    compile every model again for each constant.) Every model is compiled
+    in; :func:`model_point` compiles one."""
     if model == NEO_HOOKEAN:
-        neo_hookean(F, prm[0], prm[1], sigma, c, want_c, w, in_plane)
+        _neo_hookean_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane)
     elif model == NEO_HOOKEAN_COMPRESSIBLE:
-        neo_hookean_compressible(F, prm[1] - 2.0 / 3.0 * prm[0], prm[0], sigma, c, want_c, w,
-                                 in_plane)
-    elif model == LINEAR_ELASTIC or model == J2_SMALL_STRAIN:
-        j2_small_strain(F, prm, h_in, h_out, model == J2_SMALL_STRAIN, sigma, c, want_c, w, D)
+        _neo_hookean_compressible_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane)
+    elif model == LINEAR_ELASTIC:
+        _linear_elastic_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane)
+    elif model == J2_SMALL_STRAIN:
+        _j2_small_strain_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane)
     else:
-        j2_finite_strain(F, prm, h_in, h_out, sigma, c, want_c, w)
+        _j2_finite_strain_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane)
+
+
+def model_tag(code):
+    """A value whose numba type says which model a kernel compiles: a tuple
+    of ``code + 1`` zeros for one model shared by every particle, ``()`` for
+    MIXED. (A tuple's length is part of its type, as with ``axes``; a
+    literal int from Python would make numba re-type the kernel at every
+    call.)"""
+    return () if code == MIXED else (0,) * (code + 1)
+
+
+def model_point(only, model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    """:func:`material_point` for kernels that know their model when they
+    are compiled: ``only`` is :func:`model_tag` of the model every particle
+    shares (``model`` is then ignored, and only that model's code is
+    compiled), or of MIXED (each particle's ``model`` is dispatched at run
+    time, every model compiled in). Compiled code only: the implementation
+    is chosen by :func:`_model_point` from the type of ``only``."""
+    raise NotImplementedError("model_point runs only in compiled kernels")
+
+
+@overload(model_point, jit_options=JIT_OPTIONS)
+def _model_point(only, model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    point = POINTS.get(len(only.types) - 1)
+    if point is None:
+        def dispatched(only, model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+            material_point(model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane)
+        return dispatched
+
+    def single(only, model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+        point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane)
+    return single
 
 
 @jit
@@ -382,8 +452,8 @@ def update_points(models, params, material_of, F, h_in, h_out, sigma, c, want_c,
         m = material_of[p]
         cp = c[p] if want_c else c_scratch
         if plane_stress:
-            solve_thickness(models[m], params[m], F[p], F_inc[p], h_in[p], h_out[p], sigma[p], cp,
-                            want_c, w, D)
+            solve_thickness((), models[m], params[m], F[p], F_inc[p], h_in[p], h_out[p], sigma[p],
+                            cp, want_c, w, D)
         else:
             # every entry of c (False as a value, not a constant: see material_point)
             material_point(models[m], params[m], F[p], h_in[p], h_out[p], sigma[p], cp, want_c, w, D,
@@ -391,17 +461,18 @@ def update_points(models, params, material_of, F, h_in, h_out, sigma, c, want_c,
 
 
 @jit
-def solve_thickness(model, prm, F, F_inc, h_in, h_out, sigma, c, want_c, w, D):
+def solve_thickness(only, model, prm, F, F_inc, h_in, h_out, sigma, c, want_c, w, D):
     """Plane stress: a local Newton for F33 so that sigma33 = 0 (d sigma33 /
     d ln F33 = c3333 + sigma33), F and F_inc updated in place; the in-plane
     tangent is condensed, c_abcd - c_ab33 c_33cd / c_3333 (as
-    :class:`pimpm.kinematics.PlaneStress`)."""
+    :class:`pimpm.kinematics.PlaneStress`). ``only``, ``model``: as
+    :func:`model_point`."""
     # every iteration needs c_3333; a flag that is not a constant, so that numba
-    # does not compile material_point (every model) once more for a literal True
+    # does not compile the material point once more for a literal True
     need_c = want_c or not want_c
     in_plane = not need_c        # every entry of c: the condensation needs c_ab33, c_33cd
     for _ in range(50):
-        material_point(model, prm, F, h_in, h_out, sigma, c, need_c, w, D, in_plane)
+        model_point(only, model, prm, F, h_in, h_out, sigma, c, need_c, w, D, in_plane)
         s33 = sigma[2, 2]
         big = 0.0
         for i in range(3):

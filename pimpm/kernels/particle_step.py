@@ -18,7 +18,7 @@ The numpy references are :mod:`pimpm.assembly` and :mod:`pimpm.kinematics`.
 import numpy as np
 
 from .jit import jit
-from .material_point import WORKSPACE, material_point, solve_thickness
+from .material_point import WORKSPACE, model_point, solve_thickness
 from .pattern import stencil_slot
 from .small import det3, inv2, inv3, matmul3
 
@@ -37,7 +37,7 @@ def _in_plane_inverse(F, dim, out):
 
 @jit
 def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_n, volume_n,
-                       models, params, material_of, h_in, want_tangent, want_force,
+                       only_model, models, params, material_of, h_in, want_tangent, want_force,
                        F_inc, F, sigma, h_out, force, tangent, hoop, c):
     """Kinematics, material points and (``want_force``) the internal force
     for the ghosted-local nodal displacement ``u`` (n_nodes, dim); footprint
@@ -52,7 +52,10 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
     only if it has rows (the matrix-free product wants it). Returns the
     number of particles whose increment inverts them (det F_inc <= 0, full
     3x3). ``axes`` = tuple(range(dim)): a tuple's length is known when
-    compiling, so each dimension gets loops of fixed length."""
+    compiling, so each dimension gets loops of fixed length. ``only_model``:
+    :func:`.material_point.model_tag` of the model every particle's
+    material shares (compiled once per model, with only its code), or of
+    MIXED."""
     dim = len(axes)
     n, nn = S.shape
     w = np.empty((WORKSPACE, 3, 3))
@@ -112,9 +115,10 @@ def evaluate_particles(kinematics, axes, u, node_index, active, S, G, radius, F_
         for k in range(n_params):
             prm[k] = params[m, k]
         if kinematics == PLANE_STRESS:
-            solve_thickness(models[m], prm, Fp, Fi, hi, ho, sp, c_scratch, want_tangent, w, D)
+            solve_thickness(only_model, models[m], prm, Fp, Fi, hi, ho, sp, c_scratch, want_tangent, w, D)
         else:
-            material_point(models[m], prm, Fp, hi, ho, sp, c_scratch, want_tangent, w, D, in_plane)
+            model_point(only_model, models[m], prm, Fp, hi, ho, sp, c_scratch, want_tangent, w, D,
+                        in_plane)
         for a in range(3):
             for b in range(3):
                 F_inc[p, a, b] = Fi[a, b]

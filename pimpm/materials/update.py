@@ -3,6 +3,8 @@ stress and tangent at the trial F). Used by the implicit residual and
 tangent and by the explicit step alike."""
 import numpy as np
 
+from ..kernels import material_point as kernel_codes
+
 
 def update_stress(material_groups, kinematics, F, history, tangent, F_inc=None):
     """Cauchy stress (n, 3, 3), the spatial tangent (n, 3, 3, 3, 3) or None,
@@ -51,6 +53,9 @@ class MaterialTable:
         for mi, (_, index) in enumerate(material_groups):
             self.material_of[index] = mi
         self.width = max([self.history_width(m) for m in materials] + [0])
+        # one model for every particle: the kernels compile only its code
+        codes = set(self.models.tolist())
+        self.only_model = kernel_codes.model_tag(codes.pop() if len(codes) == 1 else kernel_codes.MIXED)
 
     @staticmethod
     def history_width(material):
