@@ -249,7 +249,7 @@ def test_a_table_of_several_models_dispatches_each_particle_to_its_own():
     out = [np.empty((len(metal), 3, 3)) for _ in range(3)]
     h_out = np.empty((len(metal), table.width))
     particle_step.evaluate_particles(
-        st.kinematics.kernel_code, (0, 1), u, st.node_index[metal], st.active[metal], st.S[metal],
+        st.kinematics.kernel_code, (0, 1), tuple(range(st.S.shape[1])), u, st.node_index[metal], st.active[metal], st.S[metal],
         st.G[metal], np.zeros(0), st.F_n[metal], st.volume_n[metal], table.only_model, table.models,
         table.params, table.material_of, st.history_packed[metal][:, :table.width], True, False,
         out[0], out[1], out[2], h_out, np.empty((sim.grid.n_local_nodes, 2)),

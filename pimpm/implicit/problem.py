@@ -74,9 +74,9 @@ class ParticleEvaluation:
         """Fill everything for ``u_local`` (G&W step 5 and the internal force)."""
         st, mt = state, state.materials
         self.inverted = particle_step.evaluate_particles(
-            st.kinematics.kernel_code, tuple(range(dim)), u_local, st.node_index, st.active, st.S, st.G,
-            st.radius if st.radius is not None else _NO_RADIUS, st.F_n, st.volume_n,
-            mt.only_model, mt.models, mt.params, mt.material_of, st.history_packed, True, True,
+            st.kinematics.kernel_code, tuple(range(dim)), tuple(range(st.S.shape[1])), u_local,
+            st.node_index, st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS,
+            st.F_n, st.volume_n, mt.only_model, mt.models, mt.params, mt.material_of, st.history_packed, True, True,
             self.F_inc, self.F, self.sigma, self.history, self.force, self.tangent, self.hoop, self.c)
         self.u = u_local.copy()
 

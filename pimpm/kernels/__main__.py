@@ -3,6 +3,7 @@ material model), so that the first run after installing does not wait for
 numba; scripts/setup.sh runs it. Compiled code is cached on disk
 (:mod:`pimpm.kernels.jit`). (A problem whose materials mix several models
 compiles its own particle kernel at its first run.)"""
+import itertools
 import sys
 import time
 
@@ -16,7 +17,7 @@ from ..simulation import Simulation  # noqa: E402
 from .jit import CACHE_DIRECTORY  # noqa: E402
 
 
-#: one material of each model (the particle kernel is compiled per model)
+#: one material of each model (the particle evaluation is compiled per model)
 MATERIALS = [{"model": "neo_hookean"}, {"model": "neo_hookean_compressible"},
              {"model": "linear_elastic"}, {"model": "j2_small_strain", "yield_stress": 0.1},
              {"model": "j2_finite_strain", "yield_stress": 0.1}]
@@ -24,8 +25,8 @@ MATERIALS = [{"model": "neo_hookean"}, {"model": "neo_hookean_compressible"},
 
 def tiny(dim, shape_functions, material):
     """A small block pressed by a platen: one step uses every implicit kernel
-    (the tangent's is compiled per footprint size: linear shape functions
-    touch 2^dim nodes, GIMP and B-splines 3^dim)."""
+    (the particle kernels are compiled per footprint size: linear shape
+    functions touch 2^dim nodes, GIMP and B-splines 3^dim)."""
     upper, cells = ([2.0, 2.0], [4, 4]) if dim == 2 else ([2.0, 2.0, 2.0], [2, 2, 3])
     body_upper = [1.0] * (dim - 1) + [1.0]
     return {"grid": {"lower": [0.0] * dim, "upper": upper, "cells": cells,
@@ -42,9 +43,8 @@ def tiny(dim, shape_functions, material):
 
 def main():
     start = time.perf_counter()
-    runs = [("linear", material) for material in MATERIALS] + [("gimp", MATERIALS[0])]
     for dim in (2, 3):
-        for shape_functions, material in runs:
+        for shape_functions, material in itertools.product(("linear", "gimp"), MATERIALS):
             sim = Simulation(validate(tiny(dim, shape_functions, material)), MPI.COMM_SELF)
             sim.advance(1.0)
             sim.solver.destroy()
