@@ -8,6 +8,8 @@ count and mass are checked by the caller.
 import numpy as np
 from mpi4py import MPI
 
+from .kernels import reorder
+
 
 class ParticleSet:
     """A set of particles: ``fields[name]`` is an array whose first axis is the
@@ -29,8 +31,9 @@ class ParticleSet:
         return name in self.fields
 
     def take(self, index):
-        """Reorder / select particles in every field."""
-        self.fields = {k: v[index] for k, v in self.fields.items()}
+        """Reorder / select particles in every field (``index``: integer
+        positions)."""
+        self.fields = {k: take(v, index) for k, v in self.fields.items()}
 
     def global_count(self, comm):
         return comm.allreduce(len(self), op=MPI.SUM)
@@ -39,6 +42,21 @@ class ParticleSet:
         local = np.sum(self.fields[name], axis=0) if len(self) else np.zeros(
             self.fields[name].shape[1:])
         return comm.allreduce(local, op=MPI.SUM)
+
+
+def take(a, index, out=None):
+    """``a[index]`` along the first axis (integer ``index``), compiled
+    (:func:`pimpm.kernels.reorder.take_rows`), into ``out`` if given."""
+    index = np.asarray(index, dtype=np.int64)
+    if out is None:
+        out = np.empty((len(index),) + a.shape[1:], dtype=a.dtype)
+    elif not out.flags.c_contiguous or out.dtype != a.dtype:
+        # reshape of a non-contiguous out would copy, and the rows be lost
+        raise ValueError("take: out must be C-contiguous and of a's dtype")
+    width = int(np.prod(a.shape[1:], dtype=np.int64))
+    reorder.take_rows(np.ascontiguousarray(a).reshape(len(a), width), index,
+                      out.reshape(len(index), width))
+    return out
 
 
 def migrate(comm, particle_set, destination):
@@ -66,7 +84,7 @@ def migrate(comm, particle_set, destination):
     packed = np.empty((len(go), ncol))
     col = 0
     for a, w in zip(arrays, widths):
-        packed[:, col:col + w] = a.reshape(len(a), w)[go]
+        packed[:, col:col + w] = take(a, go).reshape(len(go), w)
         col += w
     n_new = int(recv_counts.sum())
     received = np.empty((n_new, ncol))
@@ -74,12 +92,14 @@ def migrate(comm, particle_set, destination):
     recv_displ = np.concatenate(([0], np.cumsum(recv_counts)[:-1])) * ncol
     comm.Alltoallv([packed, send_counts * ncol, send_displ, MPI.DOUBLE],
                    [received, recv_counts * ncol, recv_displ, MPI.DOUBLE])
-    stay = ~leaving
+    stay = np.flatnonzero(~leaving)
     col = 0
     fields = {}
     for name, a, w in zip(names, arrays, widths):
-        arrived = received[:, col:col + w].reshape((n_new,) + a.shape[1:]).astype(a.dtype)
-        fields[name] = np.concatenate([a[stay], arrived])
+        merged = np.empty((len(stay) + n_new,) + a.shape[1:], dtype=a.dtype)
+        take(a, stay, merged[:len(stay)])
+        merged[len(stay):] = received[:, col:col + w].reshape((n_new,) + a.shape[1:])
+        fields[name] = merged
         col += w
     particle_set.fields = fields
 

@@ -301,3 +301,21 @@ def test_compiled_transfers_equal_numpy_sums():
                     np.einsum("pk,pkc->pc", S, nodal[node_index])) < 1e-13
     assert relative(gradient_at_particles(node_index, G, nodal),
                     np.einsum("pka,pkb->pab", nodal[node_index], G)) < 1e-13
+
+
+def test_compiled_take_equals_numpy_indexing():
+    """Particle reordering (pimpm.particles.take): every field shape and dtype
+    the particle sets hold, a permutation, a selection, nothing, and into a
+    slice of a larger array (migration's merge)."""
+    from pimpm.particles import take
+    n = 50
+    fields = [RNG.standard_normal(n), RNG.standard_normal((n, 2)), RNG.standard_normal((n, 3, 3)),
+              RNG.integers(0, 9, n), RNG.integers(0, 9, (n, 4))]
+    for index in (RNG.permutation(n), np.flatnonzero(RNG.random(n) < 0.5), np.zeros(0, dtype=np.int64)):
+        for a in fields:
+            out = take(a, index)
+            assert out.dtype == a.dtype and np.array_equal(out, a[index])
+    a = fields[2]
+    merged = np.full((n + 5, 3, 3), -1.0)
+    take(a, np.arange(n)[::-1], merged[:n])
+    assert np.array_equal(merged[:n], a[::-1]) and np.all(merged[n:] == -1.0)

@@ -11,6 +11,8 @@ once per installation (``@njit(cache=True)``):
   the consistent tangent accumulated into the matrix values;
 * :mod:`.pattern`: the nonzero pattern of the tangent from the particle
   footprints (block CSR over the ghosted local nodes);
+* :mod:`.reorder`: the gather of particle rows that reorders and migrates
+  the particle storage after every step;
 * :mod:`.jit`: the decorator, and where the compiled code is cached.
 
 The numpy versions they replace stay as references: the material models in
