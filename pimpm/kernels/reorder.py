@@ -1,8 +1,9 @@
 """Reordering particle storage, compiled: a gather of rows, what numpy's
-``a[index]`` does along the first axis, copied row by row at memory speed
-(numpy's fancy indexing of the billet's 25,600 particles, 36 numbers each,
-took 6 ms for an order that barely changed and 17 ms for a shuffled one).
-Particles are reordered after every step (:mod:`pimpm.particles`)."""
+``a[index]`` does along the first axis, copied row by row (102,400
+particles, 7 fields: 11.0 ms against numpy's 14.1 ms for an order that
+barely changed, 28.5 ms against 41.0 ms for a shuffled one; medians of 30
+in one process). Particles are reordered and migrated after every step
+(:mod:`pimpm.particles`)."""
 from .jit import jit
 
 
