@@ -8,6 +8,7 @@ Cases (each a whole run to its end time, output only at the start and the end):
   to gimp; run by both trees;
 * ``billet-quarter``: the same billet at 0.25 cm cells (102,400 particles,
   GIMP, the platen moving half a cell per step: 80 steps);
+  ``billet-quarter-linear``: the same with linear shape functions;
 * ``block-3d``: the 3D block of scripts/bench_solvers.py at 32 cells per axis
   (79,507 particles, 107,811 unknowns, 4 quasi-static steps) with the
   gmres-gamg preset (MUMPS factorizes it in minutes; see PERFORMANCE.md).
@@ -22,7 +23,7 @@ missing), with its own inputs. Then the start-up: a one-step billet run with
 an empty kernel cache (cold: numba compiles) and again (warm). Writes JSON.
 
     python scripts/bench_parallel.py [--baseline b88024b] [--repeats 3]
-        [--cases billet-linear billet-gimp billet-quarter block-3d]
+        [--cases billet-linear billet-gimp billet-quarter [billet-quarter-linear] block-3d]
         [--baseline-cases billet-linear billet-gimp] [--ranks 1 2]
         [--imbalance-ranks 3] [--json docs/bench_parallel.json]
 """
@@ -47,7 +48,7 @@ from bench_solvers import block3d, parse_log  # noqa: E402
 from pimpm.measures import bulge_from_fields, edge_particle_id  # noqa: E402
 
 STAGES = ("P2G", "Solve", "Constitutive update", "Assembly", "G2P", "Migration", "Output")
-CASES = ("billet-linear", "billet-gimp", "billet-quarter", "block-3d")
+CASES = ("billet-linear", "billet-gimp", "billet-quarter", "billet-quarter-linear", "block-3d")
 
 
 def worktree(commit):
@@ -64,8 +65,8 @@ def case_input(tree, case):
         return block3d(2, 4, "linear"), ["-pimpm_preset", "gmres-gamg"]
     with open(os.path.join(tree, "inputs", "billet.yaml")) as f:
         config = yaml.safe_load(f)
-    config["grid"]["shape_functions"] = "linear" if case == "billet-linear" else "gimp"
-    if case == "billet-quarter":                 # 0.25 cm cells, half a cell per step
+    config["grid"]["shape_functions"] = "linear" if case.endswith("-linear") else "gimp"
+    if case.startswith("billet-quarter"):        # 0.25 cm cells, half a cell per step
         config["grid"]["cells"] = [2 * n for n in config["grid"]["cells"]]
         config["bodies"][1]["geometry"]["upper"][1] = 20.25
         config["time"]["dt"] = 0.5 * config["time"]["dt"]
@@ -159,7 +160,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--baseline", default="b88024b")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES)
+    ap.add_argument("--cases", nargs="+", choices=CASES,
+                    default=["billet-linear", "billet-gimp", "billet-quarter", "block-3d"])
     ap.add_argument("--baseline-cases", nargs="*", default=["billet-linear", "billet-gimp"], choices=CASES)
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--imbalance-ranks", type=int, nargs="*", default=[3],
