@@ -5,6 +5,7 @@ GAMG. (The matrix-free tangent's product is physics: pimpm/implicit/shell.py.)
 All of them are configured through the PETSc options database, so every
 choice can be refined or overridden from the command line.
 """
+import numpy as np
 from petsc4py import PETSc
 
 #: GAMG settings, measured on whole runs of the 50% billet (docs/PERFORMANCE.md,
@@ -95,6 +96,78 @@ class FallbackKSP:
         if self.iterative is not None:
             self.iterative.view(viewer)
             self.direct.view(viewer)
+
+
+class FreeDofsKSP:
+    """Context of a ``python`` KSP for the direct solvers: the factorization
+    sees only the free dofs. The Newton matrix keeps every prescribed dof
+    (grid faces, rigid bodies, and the nodes no particle reaches, about half
+    of the 0.25 cm billet's 27,370 unknowns) as a row and column holding only
+    its diagonal; such a row's unknown is its right-hand side over that
+    diagonal, and the other rows do not see it. The inner KSP (the ordinary
+    ``-ksp_*``/``-pc_*``/``-mat_mumps_*`` options) factorizes the step's
+    matrix on the free dofs (:meth:`pimpm.implicit.StepProblem.create_free_jacobian`,
+    assembled from the values the whole matrix gets). PETSc's PCREDISTRIBUTE
+    does the same, but extracts the smaller matrix anew at every Newton
+    iteration (MatCreateSubMatrix) and moves rows between ranks. Measured in
+    docs/PERFORMANCE.md ("The direct solver on the free dofs only")."""
+
+    def __init__(self):
+        self.inner = None
+        self.matrix = None          # the step's matrix on the free dofs
+        self.free = None            # owned dofs: free?
+        self.b = self.x = None
+
+    def _inner(self, ksp):
+        if self.inner is None:
+            self.inner = PETSc.KSP().create(comm=ksp.getComm())
+
+    def setFromOptions(self, ksp):
+        self._inner(ksp)
+        self.inner.setFromOptions()
+
+    def setUp(self, ksp):
+        self._inner(ksp)
+
+    def set_matrix(self, matrix, free):
+        """Begin a step: its matrix on the free dofs and the owned dofs'
+        free mask (the factorization starts afresh: new pattern, new size)."""
+        self.inner.reset()
+        for obj in (self.b, self.x):
+            if obj is not None:
+                obj.destroy()
+        self.matrix, self.free = matrix, free
+        self.x, self.b = matrix.createVecs()
+        self.inner.setOperators(matrix, matrix)
+
+    def solve(self, ksp, b, x):
+        A, _ = ksp.getOperators()
+        diagonal = A.getDiagonal()
+        rhs = b.getArray(readonly=True)
+        self.b.setArray(rhs[self.free])
+        self.inner.setOperators(self.matrix, self.matrix)
+        self.inner.solve(self.b, self.x)
+        out = np.empty_like(rhs)
+        prescribed = ~self.free
+        out[prescribed] = rhs[prescribed] / diagonal.getArray(readonly=True)[prescribed]
+        out[self.free] = self.x.getArray(readonly=True)
+        diagonal.destroy()
+        x.setArray(out)
+        ksp.setIterationNumber(self.inner.getIterationNumber())
+        ksp.setConvergedReason(self.inner.getConvergedReason())
+
+    def release(self):
+        """Destroy the inner objects (collective; not named ``destroy``, which
+        petsc4py would call back as the outer KSP goes, maybe after Python's
+        own objects are gone)."""
+        for obj in (self.inner, self.b, self.x):
+            if obj is not None:
+                obj.destroy()
+
+    def view(self, ksp, viewer):
+        viewer.printfASCII("  direct solver on the free dofs only:\n")
+        if self.inner is not None:
+            self.inner.view(viewer)
 
 
 def rigid_body_near_null_space(grid):

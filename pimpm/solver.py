@@ -13,7 +13,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .convergence import GuilkeyWeissTest
-from .linear import FALLBACK_OPTIONS, PRESETS, FallbackKSP, rigid_body_near_null_space
+from .linear import FALLBACK_OPTIONS, PRESETS, FallbackKSP, FreeDofsKSP, rigid_body_near_null_space
 from .options import pimpm_option
 from .stages import log_stage
 
@@ -62,14 +62,15 @@ def diagnose_solver_options(config, err):
             f"expected valid option values in solver.petsc and on the command line")
 
 
-def _check_tolerances(snes, yaml_options, fallback=None):
+def _check_tolerances(snes, yaml_options, ksp=None):
     """PETSc takes negative tolerances and iteration limits; pimpm would then
-    report a numerical failure. Refuse them here, naming the option."""
+    report a numerical failure. Refuse them here, naming the option.
+    ``ksp``: the KSP that solves (the inner one of a python KSP)."""
     rtol, atol, stol, max_it = snes.getTolerances()
     values = {"snes_rtol": rtol, "snes_atol": atol, "snes_stol": stol, "snes_max_it": max_it}
-    ksp = snes.getKSP()
-    if ksp.getType() == PETSc.KSP.Type.PYTHON:       # the fallback's inner solvers
-        ksp = fallback.iterative if fallback is not None else None
+    ksp = ksp or snes.getKSP()
+    if ksp.getType() == PETSc.KSP.Type.PYTHON:
+        ksp = None
     if ksp is not None:
         k_rtol, k_atol, _, k_max_it = ksp.getTolerances()
         values.update(ksp_rtol=k_rtol, ksp_atol=k_atol, ksp_max_it=k_max_it)
@@ -80,12 +81,13 @@ def _check_tolerances(snes, yaml_options, fallback=None):
             raise ValueError(f"{where} = {value:g}: expected {what}")
 
 
-def _check_factorizations(snes, yaml_options, fallback=None):
+def _check_factorizations(snes, yaml_options, fallback=None, ksp=None):
     """A factorization package that PETSc does not have for the chosen
     factorization (-pc_factor_mat_solver_type nonsense, or superlu for a
     Cholesky) fails at the first solve, which pimpm would report as a
-    numerical failure. Try each on a 1x1 matrix now, naming the option."""
-    pcs = [("", snes.getKSP().getPC())]
+    numerical failure. Try each on a 1x1 matrix now, naming the option.
+    ``ksp``: the KSP that solves (the inner one of a python KSP)."""
+    pcs = [("", (ksp or snes.getKSP()).getPC())]
     if fallback is not None and fallback.direct is not None:
         pcs = [("", fallback.iterative.getPC()), ("fallback_", fallback.direct.getPC())]
     for prefix, pc in pcs:
@@ -198,6 +200,12 @@ class NewtonSolver:
         self.symmetric = problem.symmetric and not self.matrix_free
         self.near_null_space = iterative and not self.matrix_free
         self.on_pattern = problem.assembles_on_pattern and not self.matrix_free
+        # a direct solver factorizes the free dofs only (pimpm.linear.FreeDofsKSP)
+        self.free_dofs = None
+        setting = lambda key: db.getString(key) if db.hasName(key) else options.get(key)  # noqa: E731
+        use_free_dofs = (pimpm_option("pimpm_free_dofs_only", True) and self.on_pattern and problem.coo
+                         and not use_fallback and not self._mf_operator(options)
+                         and setting("ksp_type") == "preonly" and setting("pc_type") in ("lu", "cholesky"))
         if self.on_pattern:        # a placeholder until the first step's pattern is known
             self.J = diagonal_matrix(self.da)
         else:
@@ -209,21 +217,28 @@ class NewtonSolver:
         self.snes.setJacobian(problem.form_jacobian, self.J, self.J)
         if self.gw_test is not None:
             self.snes.setConvergenceTest(self.gw_test)
-        if use_fallback:
+        if use_fallback or use_free_dofs:
             ksp = self.snes.getKSP()
             ksp.setOptionsPrefix("pimpm_outer_")       # the inner solvers read -ksp_*, -pc_*
             ksp.setType(PETSc.KSP.Type.PYTHON)
-            self.fallback = FallbackKSP()
-            ksp.setPythonContext(self.fallback)
+            # the inner solvers precondition; PETSc's default here would factorize
+            # the whole matrix (ILU, or ICC when symmetric) at every Newton iteration
+            ksp.getPC().setType(PETSc.PC.Type.NONE)
+            if use_fallback:
+                self.fallback = FallbackKSP()
+                ksp.setPythonContext(self.fallback)
+            else:
+                self.free_dofs = FreeDofsKSP()
+                ksp.setPythonContext(self.free_dofs)
         with scoped_options(options):
             self.snes.setFromOptions()
-            if use_fallback:
+            if use_fallback or use_free_dofs:
                 self.snes.getKSP().setUp()
         self.destroyed = False
         _LIVE_SOLVERS.add(self)
         try:
-            _check_tolerances(self.snes, solver_config["petsc"], self.fallback)
-            _check_factorizations(self.snes, solver_config["petsc"], self.fallback)
+            _check_tolerances(self.snes, solver_config["petsc"], self.linear_ksp())
+            _check_factorizations(self.snes, solver_config["petsc"], self.fallback, self.linear_ksp())
         except ValueError:
             self.destroy()        # before PetscFinalize: the python KSP context
             raise
@@ -249,6 +264,12 @@ class NewtonSolver:
             return
         J = self.problem.create_jacobian(False, state.pattern)
         self._set_matrix_options(J)
+        if self.free_dofs is not None:
+            free = self.problem.create_free_jacobian(state.pattern, ~state.fixed)
+            if self.symmetric:
+                free.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+                free.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
+            self.free_dofs.set_matrix(free, ~state.fixed)
         if self._mf_operator():       # the operator stays the finite-difference one
             self.snes.setJacobian(self.problem.form_jacobian, None, J)
         else:
@@ -265,6 +286,14 @@ class NewtonSolver:
         if self.fallback is not None and self.fallback.iterative is not None:
             self.fallback.iterative.destroy()
             self.fallback.direct.destroy()
+        if self.free_dofs is not None:
+            self.free_dofs.release()
+        outer = self.snes.getKSP()
+        if outer.getType() == PETSc.KSP.Type.PYTHON:
+            # drop the Python context now: after an exception in a callback,
+            # the traceback may still hold the SNES, which PetscFinalize would
+            # then destroy, calling back into a finalized interpreter
+            outer.setType(PETSc.KSP.Type.PREONLY)
         for obj in (self.snes, self.J, self.X, self.R):
             obj.destroy()
         self.problem.destroy()
@@ -276,6 +305,9 @@ class NewtonSolver:
             inner = self.fallback.iterative
             linear = (f"{inner.getType()}+{inner.getPC().getType()} with direct fallback "
                       f"({self.fallback.direct.getType()}+{self.fallback.direct.getPC().getType()})")
+        elif self.free_dofs is not None:
+            inner = self.free_dofs.inner
+            linear = f"{inner.getType()}+{inner.getPC().getType()} on the free dofs"
         else:
             linear = f"{ksp.getType()}+{ksp.getPC().getType()}"
         test = "Guilkey-Weiss eq. 13" if self.gw_test else "PETSc (rtol/atol/stol)"
@@ -285,8 +317,18 @@ class NewtonSolver:
         return (f"preset {self.preset}: SNES {self.snes.getType()} (line search {line_search}"
                 f"{operator}), linear {linear}, convergence {test}")
 
-    def _mf_operator(self):
-        return PETSc.Options().hasName("snes_mf_operator") or "snes_mf_operator" in self.options
+    def _mf_operator(self, options=None):
+        return PETSc.Options().hasName("snes_mf_operator") or "snes_mf_operator" in (
+            self.options if options is None else options)
+
+    def linear_ksp(self):
+        """The KSP that solves the Newton systems: the fallback's iterative
+        one, the free-dof direct one, or SNES's own."""
+        if self.fallback is not None:
+            return self.fallback.iterative
+        if self.free_dofs is not None:
+            return self.free_dofs.inner
+        return self.snes.getKSP()
 
     def solve(self, state, initial_guess, step=0):
         """Newton on the incremental grid displacement of ``state``'s step
@@ -308,6 +350,8 @@ class NewtonSolver:
                 # others, after dropping the preconditioner's factors
                 petsc_error = err
                 self.snes.getKSP().getPC().reset()
+                if self.free_dofs is not None:
+                    self.free_dofs.inner.getPC().reset()
         reason = self.snes.getConvergedReason()
         norms, lits = self.snes.getConvergenceHistory()
         its = self.snes.getIterationNumber()

@@ -16,13 +16,17 @@ then, on 1 and 2 ranks, e.g.:
         -reps 5 -mat_mumps_icntl_7 2 [-mat_mumps_icntl_8 0] [-spd] [-json out.json]
 
 ``-which``: the 0-based positions of the matrices in the file; ``-spd``:
-mark the matrix SPD (MUMPS SYM=1 instead of LDL^T with pivoting). Prints the
+mark the matrix SPD (MUMPS SYM=1 instead of LDL^T with pivoting); ``-free``:
+factorize only the free unknowns, i.e. drop the rows and columns that are a
+diagonal entry alone (the prescribed and massless dofs, which pimpm keeps in
+the system as identity rows), to see what keeping them costs. Prints the
 fastest of ``-reps`` repetitions and the relative residual of the solve.
 """
 import json
 import sys
 import time
 
+import numpy as np
 import petsc4py
 
 petsc4py.init(sys.argv)
@@ -43,6 +47,20 @@ def load(path, wanted, comm):
             A.destroy()
     viewer.destroy()
     return mats
+
+
+def free_rows(A):
+    """Index set of the rows of ``A`` with an off-diagonal entry that is not
+    zero (the others are identity rows of prescribed or massless dofs; their
+    columns are zero too, pimpm eliminates them symmetrically)."""
+    start, end = A.getOwnershipRange()
+    indptr, columns, values = A.getValuesCSR()
+    rows = np.repeat(np.arange(start, end), np.diff(indptr))
+    coupled = np.zeros(end - start, dtype=bool)
+    off = (columns != rows) & (values != 0.0)
+    coupled[rows[off] - start] = True
+    return PETSc.IS().createGeneral((np.nonzero(coupled)[0] + start).astype(PETSc.IntType),
+                                    comm=A.getComm())
 
 
 def time_factorization(A, reps, comm):
@@ -85,8 +103,14 @@ def main():
     wanted = [int(s) for s in opts.getString("which", "0").split(",")]
     reps = opts.getInt("reps", 3)
     spd = opts.getBool("spd", False)
+    free = opts.getBool("free", False)
     rows = []
     for k, A in sorted(load(path, wanted, comm).items()):
+        if free:
+            keep = free_rows(A)
+            full, A = A, A.createSubMatrix(keep, keep)
+            keep.destroy()
+            full.destroy()
         A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         if spd:
             A.setOption(PETSc.Mat.Option.SPD, True)
@@ -100,7 +124,8 @@ def main():
     out = opts.getString("json", "")
     if out and comm.rank == 0:
         with open(out, "w") as f:
-            json.dump({"ranks": comm.size, "options": sys.argv[1:], "rows": rows}, f, indent=1)
+            json.dump({"ranks": comm.size, "options": sys.argv[1:], "free_only": free, "rows": rows}, f,
+                      indent=1)
 
 
 if __name__ == "__main__":

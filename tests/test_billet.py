@@ -82,3 +82,15 @@ def test_ranks_hold_equal_shares_of_the_particles_and_agree(tmp_path):
     proc = run_pimpm(2, ["input.yaml", "-pimpm_balance", "0"], cwd=work)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert read_history(work / "out" / "history.csv")["particle_imbalance"][0] > 1.5
+    # 3 ranks, even split: the last rank owns x >= 24 cm, where no billet
+    # particle is in these 8 steps: every dof it owns is prescribed (massless,
+    # or the platen's), so it has no row of the direct solver's matrix on the
+    # free dofs (pimpm.linear.FreeDofsKSP). The same answer all the same.
+    work = tmp_path / "even3"
+    work.mkdir()
+    write_yaml(work / "input.yaml", config)
+    proc = run_pimpm(3, ["input.yaml", "-pimpm_balance", "0"], cwd=work)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    history = read_history(work / "out" / "history.csv")
+    assert history["particle_imbalance"][0] > 1.4
+    np.testing.assert_allclose(history["platen_force_y"], runs[0][2]["platen_force_y"], rtol=1e-8)

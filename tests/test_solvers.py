@@ -168,8 +168,7 @@ def test_matrix_free_axisymmetric_plastic_matches_assembled():
 
 
 def _iterative_ksp(sim):
-    fallback = sim.solver.fallback
-    return fallback.iterative if fallback is not None else sim.solver.snes.getKSP()
+    return sim.solver.linear_ksp()
 
 
 def _smoother_max_it(ksp):
@@ -200,7 +199,7 @@ def test_options_are_in_force_for_the_whole_solve(source):
         assert ksp.getTolerances()[0] == pytest.approx(expected[1], rel=1e-12)
         gamg.solver.destroy()
         direct, _ = run_steps(billet_config("mumps", petsc=yaml_mumps), 1)
-        factor = direct.solver.snes.getKSP().getPC().getFactorMatrix()
+        factor = direct.solver.linear_ksp().getPC().getFactorMatrix()
         if expected[2] is None:
             assert factor.getMumpsIcntl(14) not in (35, 40)      # MUMPS's own default
         else:
@@ -221,8 +220,8 @@ def test_symmetric_tangent_is_factorized_by_ldlt_and_gives_the_lu_answer():
     LU."""
     ldlt, ldlt_infos = run_steps(billet_config("mumps"), 3)
     lu, lu_infos = run_steps(billet_config("mumps", petsc={"pc_type": "lu"}), 3)
-    assert ldlt.solver.snes.getKSP().getPC().getType() == "cholesky"
-    assert lu.solver.snes.getKSP().getPC().getType() == "lu"
+    assert ldlt.solver.linear_ksp().getPC().getType() == "cholesky"
+    assert lu.solver.linear_ksp().getPC().getType() == "lu"
     assert [i["newton_iterations"] for i in ldlt_infos] == [i["newton_iterations"] for i in lu_infos]
     assert abs(bulge(ldlt) - bulge(lu)) <= 1e-10 * abs(bulge(lu))
     for s in (ldlt, lu):
@@ -230,5 +229,61 @@ def test_symmetric_tangent_is_factorized_by_ldlt_and_gives_the_lu_answer():
     from helpers import coarse_upsetting
     plastic = Simulation(validate(coarse_upsetting()), MPI.COMM_WORLD)
     assert not plastic.problem.symmetric
-    assert plastic.solver.snes.getKSP().getPC().getType() == "lu"
+    assert plastic.solver.linear_ksp().getPC().getType() == "lu"
     plastic.solver.destroy()
+
+
+def _coupled_rows(A):
+    """Global number of rows of ``A`` with a nonzero off-diagonal entry."""
+    start, end = A.getOwnershipRange()
+    indptr, columns, values = A.getValuesCSR()
+    rows = np.repeat(np.arange(start, end), np.diff(indptr))
+    return MPI.COMM_WORLD.allreduce(len(np.unique(rows[(columns != rows) & (values != 0.0)])))
+
+
+def test_direct_solver_factorizes_only_the_free_dofs():
+    """The Newton matrix keeps prescribed and massless dofs as rows holding
+    only their diagonal; the direct solver factorizes the others alone
+    (pimpm.linear.FreeDofsKSP) and solves those rows by division. Its matrix
+    has exactly as many rows as the whole matrix has coupled rows (counted
+    on the assembled matrix, as PETSc's PCREDISTRIBUTE counts them), far
+    fewer than the grid's dofs, and the billet takes the same Newton steps
+    to the same answer as when MUMPS factorizes the whole matrix
+    (-pimpm_free_dofs_only 0)."""
+    from petsc4py import PETSc
+    db = PETSc.Options()
+    free, free_infos = run_steps(billet_config("mumps"), 3)
+    solver = free.solver
+    assert solver.free_dofs is not None and "on the free dofs" in solver.describe()
+    factorized = solver.linear_ksp().getOperators()[0]
+    n_factorized, n_all = factorized.getSize()[0], solver.J.getSize()[0]
+    assert n_factorized == _coupled_rows(solver.J)
+    assert n_factorized < 0.8 * n_all
+    assert factorized.getSize()[0] == MPI.COMM_WORLD.allreduce(int(np.count_nonzero(solver.free_dofs.free)))
+    db.setValue("pimpm_free_dofs_only", "0")
+    try:
+        whole, whole_infos = run_steps(billet_config("mumps"), 3)
+    finally:
+        db.delValue("pimpm_free_dofs_only")
+    assert whole.solver.free_dofs is None
+    assert whole.solver.linear_ksp().getOperators()[0].getSize()[0] == n_all
+    assert [i["newton_iterations"] for i in free_infos] == [i["newton_iterations"] for i in whole_infos]
+    for a, b in zip(free_infos, whole_infos):
+        np.testing.assert_allclose(a["residual_history"], b["residual_history"], rtol=1e-7, atol=1e-14)
+    assert abs(bulge(free) - bulge(whole)) <= 1e-12 * abs(bulge(whole))
+    np.testing.assert_allclose(free.particles["x"], whole.particles["x"], rtol=0, atol=1e-12)
+    for s in (free, whole):
+        s.solver.destroy()
+
+
+def test_iterative_and_fallback_solvers_keep_the_whole_matrix():
+    """Only a direct solver (preonly + lu/cholesky) gets the free-dof matrix:
+    GMRES + GAMG with the fallback, and -pc_type lu under an iterative KSP,
+    solve the whole one."""
+    gamg, _ = run_steps(billet_config("gmres-gamg"), 1)
+    assert gamg.solver.free_dofs is None and gamg.solver.fallback is not None
+    gamg.solver.destroy()
+    gmres_lu, _ = run_steps(billet_config("mumps", petsc={"ksp_type": "gmres"}), 1)
+    assert gmres_lu.solver.free_dofs is None
+    assert gmres_lu.solver.linear_ksp().getType() == "gmres"
+    gmres_lu.solver.destroy()

@@ -119,6 +119,8 @@ class StepProblem:
         self.matrix_free = False         # the shell's product needs the full spatial tangent
         #: the tangent on the step's pattern is assembled through COO (pimpm.coo)
         self.coo = coo.available() and not momentum
+        #: the step's tangent on the free dofs only (:meth:`create_free_jacobian`), or None
+        self.free_matrix = None
 
     def begin(self, state, step=0):
         """Start solving a step (``step``: its 1-based number)."""
@@ -164,7 +166,38 @@ class StepProblem:
             return self.K.matMult(self.projection)
         return pattern_matrix(self.grid, pattern, self.coo)
 
+    def create_free_jacobian(self, pattern, free):
+        """The step's tangent on its free dofs only (``free``: owned dofs,
+        not prescribed), filled by :meth:`form_jacobian` with the values it
+        gives the whole matrix: the same COO pattern, with a local-to-global
+        map that sends every prescribed dof to -1, whose entries PETSc then
+        ignores. Rows are owned where the DMDA owns the dof; block size 1 (a
+        node may have one dof prescribed and the other free). Replaces the
+        previous step's. Collective."""
+        grid = self.grid
+        comm = grid.comm
+        n_free = int(np.count_nonzero(free))
+        first = comm.exscan(n_free) or 0
+        total = comm.allreduce(n_free)
+        owned_index = np.full(len(free), -1.0)
+        owned_index[free] = first + np.arange(n_free)
+        local_index = np.rint(grid.owned_to_local(owned_index).reshape(-1)).astype(PETSc.IntType)
+        if self.free_matrix is not None:
+            self.free_matrix.destroy()
+        A = PETSc.Mat().create(comm=grid.da.getComm())
+        A.setSizes(((n_free, total), (n_free, total)))
+        A.setType(PETSc.Mat.Type.AIJ)
+        lgmap = PETSc.LGMap().create(local_index, comm=grid.da.getComm())
+        A.setLGMap(lgmap, lgmap)
+        lgmap.destroy()
+        coo.preallocate_local(A, pattern.scalar_rows, pattern.scalar_indices)
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, True)
+        self.free_matrix = A
+        return A
+
     def destroy(self):
+        if self.free_matrix is not None:
+            self.free_matrix.destroy()
         for obj in (self.diag, self.K, self.projection):
             if obj is not None:
                 obj.destroy()
@@ -268,7 +301,10 @@ class StepProblem:
         with self._stage("Assembly"):
             if self.coo:
                 # every rank hands PETSc its values, none or not (collective)
-                coo.set_values(P, self._jacobian_values(evaluation))
+                values = self._jacobian_values(evaluation)
+                coo.set_values(P, values)
+                if self.free_matrix is not None:
+                    coo.set_values(self.free_matrix, values)
                 if J != P:
                     J.assemble()
                 return
