@@ -62,6 +62,10 @@ def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, 
     # COO is in use wherever the formulation allows it (the velocity formulation)
     assert float(re.search(r"coo_csr_difference=(\S+)", proc.stdout).group(1)) < 1e-14
     assert ("coo_used=True" in proc.stdout) == ("momentum" not in kinematics)
+    # the direct solver's matrix on the free dofs is the whole one's free block
+    # (where the direct preset runs on COO: every velocity-formulation case)
+    assert ("free_matrix=True" in proc.stdout) == ("momentum" not in kinematics)
+    assert float(re.search(r"free_matrix_difference=(\S+)", proc.stdout).group(1)) < 1e-14
 
 
 def test_transfers_conserve_mass_and_momentum_on_1_2_3_ranks():

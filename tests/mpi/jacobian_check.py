@@ -122,6 +122,17 @@ difference.axpy(-1.0, transposed)
 asymmetry = difference.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
 difference.destroy()
 transposed.destroy()
+# The direct solver's matrix on the free dofs (pimpm.linear.FreeDofsKSP)
+# against the free rows and columns of the whole matrix
+free_matrix_difference = 0.0
+if problem.free_matrix is not None:
+    start_J = solver.J.getOwnershipRange()[0]
+    keep = PETSc.IS().createGeneral((start_J + np.flatnonzero(~state.fixed)).astype(PETSc.IntType), comm=comm)
+    block = solver.J.createSubMatrix(keep, keep)
+    block.axpy(-1.0, problem.free_matrix, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    free_matrix_difference = block.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
+    block.destroy()
+    keep.destroy()
 # The COO assembly (pimpm/coo.py) against PETSc's MatSetValuesLocal path
 coo_difference = 0.0
 if problem.coo:
@@ -192,9 +203,10 @@ shell_solver.destroy()
 if comm.rank == 0:
     print(f"shell_product_relative_error={shell_error:.3e}")
     print(f"coo_used={problem.coo} coo_csr_difference={coo_difference:.3e}")
+    print(f"free_matrix={problem.free_matrix is not None} free_matrix_difference={free_matrix_difference:.3e}")
     print(f"jacobian_check {integrator} dim={sim.dim} shape={shape} ranks={comm.size} free_dofs={n_free} "
           f"formulation={'momentum' if momentum else 'velocity'} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok} "
           f"asymmetry={asymmetry:.3e} declared_symmetric={problem.symmetric} weak_pairs={weak_pairs}")
-ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8
+ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8 and free_matrix_difference < 1e-14
 sys.exit(0 if ok else 1)
