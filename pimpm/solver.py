@@ -288,11 +288,13 @@ class NewtonSolver:
             self.fallback.direct.destroy()
         if self.free_dofs is not None:
             self.free_dofs.release()
+        # After an exception in a callback the traceback may still hold the
+        # SNES, which PetscFinalize would then destroy, calling back into a
+        # finalized interpreter: drop its Python contexts now (the shell
+        # matrix through SNESReset, the python KSP by a change of type)
+        self.snes.reset()
         outer = self.snes.getKSP()
         if outer.getType() == PETSc.KSP.Type.PYTHON:
-            # drop the Python context now: after an exception in a callback,
-            # the traceback may still hold the SNES, which PetscFinalize would
-            # then destroy, calling back into a finalized interpreter
             outer.setType(PETSc.KSP.Type.PREONLY)
         for obj in (self.snes, self.J, self.X, self.R):
             obj.destroy()

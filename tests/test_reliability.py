@@ -38,11 +38,12 @@ def test_a_failure_on_one_rank_stops_every_rank(tmp_path, plan):
     assert "Traceback (most recent call last)" in proc.stderr
 
 
-@pytest.mark.parametrize("options", [(), ("-pimpm_preset", "gmres-gamg")])
+@pytest.mark.parametrize("options", [(), ("-pimpm_preset", "gmres-gamg"), ("-pimpm_preset", "matrix-free")])
 def test_a_failure_on_one_rank_of_one_is_a_traceback_and_status_1(tmp_path, options):
-    """Also with pimpm's python KSPs (the direct solver on the free dofs, the
-    fallback), whose Python context must go before PetscFinalize even when the
-    traceback still holds the SNES (it used to crash there: MPI_ABORT, 59)."""
+    """Also with pimpm's Python contexts in PETSc objects (the python KSPs of
+    the direct solver on the free dofs and of the fallback, the matrix-free
+    shell), which must go before PetscFinalize even when the traceback still
+    holds the SNES (the last two used to crash there: MPI_ABORT, 59)."""
     proc, elapsed = run_with_failure(tmp_path, "residual:0:2", ranks=1, options=options)
     assert proc.returncode == 1 and elapsed < 30.0, proc.stderr[-2000:]
     assert "RuntimeError: injected failure" in proc.stderr
