@@ -243,11 +243,13 @@ class NewtonSolver:
             self.destroy()        # before PetscFinalize: the python KSP context
             raise
 
-    def _set_matrix_options(self, J):
+    def _set_matrix_options(self, J, whole_grid=True):
+        """Symmetry flags, and GAMG's rigid-body modes on a matrix over the
+        whole grid (``whole_grid``; not on the free dofs' matrix)."""
         if self.symmetric:
             J.setOption(PETSc.Mat.Option.SYMMETRIC, True)
             J.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
-        if self.near_null_space:
+        if self.near_null_space and whole_grid:
             J.setNearNullSpace(rigid_body_near_null_space(self.grid))
 
     def prepare(self, state, step=0):
@@ -265,11 +267,10 @@ class NewtonSolver:
         J = self.problem.create_jacobian(False, state.pattern)
         self._set_matrix_options(J)
         if self.free_dofs is not None:
-            free = self.problem.create_free_jacobian(state.pattern, ~state.fixed)
-            if self.symmetric:
-                free.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-                free.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
-            self.free_dofs.set_matrix(free, ~state.fixed)
+            free = ~state.fixed
+            free_matrix = self.problem.create_free_jacobian(state.pattern, free)
+            self._set_matrix_options(free_matrix, whole_grid=False)
+            self.free_dofs.set_matrix(free_matrix, free)
         if self._mf_operator():       # the operator stays the finite-difference one
             self.snes.setJacobian(self.problem.form_jacobian, None, J)
         else:
