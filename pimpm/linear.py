@@ -131,8 +131,10 @@ class FreeDofsKSP:
 
     def set_matrix(self, matrix, free):
         """Begin a step: its matrix on the free dofs and the owned dofs'
-        free mask (the factorization starts afresh: new pattern, new size)."""
-        self.inner.reset()
+        free mask (the factorization starts afresh: new pattern, new size).
+        Only the PC is reset: KSPReset would also drop the viewers that
+        -ksp_view and -ksp_view_mat set up."""
+        self.inner.getPC().reset()
         for obj in (self.b, self.x):
             if obj is not None:
                 obj.destroy()

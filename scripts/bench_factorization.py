@@ -6,9 +6,11 @@ command line. For tuning the direct solver, and for seeing how it scales
 with the number of ranks, without the particle work around it.
 
 Save the Jacobians of a run first (PETSc appends every matrix it factorizes
-to one binary file; the 0.25 cm billet's 327 Newton iterations take 2.4 GB):
+to one binary file; the 0.25 cm billet's 327 Newton iterations take 2.4 GB).
+By default pimpm factorizes the free dofs only, and those matrices are
+saved; ``-pimpm_free_dofs_only false`` saves the whole Newton matrices:
 
-    mpiexec -n 1 python -m pimpm case.yaml -ksp_view_mat binary:J.bin
+    mpiexec -n 1 python -m pimpm case.yaml -ksp_view_mat binary:J.bin -pimpm_free_dofs_only false
 
 then, on 1 and 2 ranks, e.g.:
 

@@ -287,3 +287,32 @@ def test_iterative_and_fallback_solvers_keep_the_whole_matrix():
     assert gmres_lu.solver.free_dofs is None
     assert gmres_lu.solver.linear_ksp().getType() == "gmres"
     gmres_lu.solver.destroy()
+
+
+def test_ksp_view_options_show_the_ksp_that_solves(tmp_path):
+    """-ksp_view and -ksp_view_mat act on the KSP that solves, inside pimpm's
+    python KSP, at every Newton iteration of every step (the free-dof solver
+    resets only its PC between steps: KSPReset would drop the viewers): a
+    one-step billet prints the direct solver and saves the free dofs'
+    matrices (fewer rows than the grid has dofs); with the GMRES + GAMG
+    preset, the iterative solver and the whole matrix."""
+    from petsc4py import PETSc
+    raw = coarse_billet("quasi_static")
+    raw["time"]["end_time"] = raw["time"]["dt"]
+    write_yaml(tmp_path / "input.yaml", raw)
+    grid_dofs = 2 * (raw["grid"]["cells"][0] + 1) * (raw["grid"]["cells"][1] + 1)
+    for preset, ksp_type in (("mumps", "preonly"), ("gmres-gamg", "gmres")):
+        proc = run_pimpm(None, ["input.yaml", "--overwrite", "-pimpm_preset", preset, "-ksp_view",
+                                "-ksp_view_mat", f"binary:{preset}.bin"], cwd=tmp_path)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        newton = int(read_history(tmp_path / "out" / "history.csv")["newton_iterations"][0])
+        views = re.findall(r"KSP Object: 1 MPI process\n\s+type: (\S+)", proc.stdout)
+        assert views.count(ksp_type) == newton, views
+        viewer = PETSc.Viewer().createBinary(str(tmp_path / f"{preset}.bin"), "r", comm=PETSc.COMM_SELF)
+        A = PETSc.Mat().create(comm=PETSc.COMM_SELF)
+        A.setType(PETSc.Mat.Type.AIJ)
+        A.load(viewer)
+        rows = A.getSize()[0]
+        assert (rows < 0.8 * grid_dofs) if preset == "mumps" else (rows == grid_dofs), rows
+        A.destroy()
+        viewer.destroy()
