@@ -4,6 +4,9 @@ integrator and plasticity dissipated)."""
 import numpy as np
 from mpi4py import MPI
 
+from .kernels import stress as stress_kernels
+from .materials.update import MaterialTable
+
 
 def kinetic_energy(particles, comm):
     p = particles
@@ -11,13 +14,13 @@ def kinetic_energy(particles, comm):
 
 
 def strain_energy(particles, material_groups, comm):
-    """Stored energy of every material (per reference volume, times it). Collective."""
+    """Stored energy of every material (per reference volume, times it),
+    compiled (:func:`pimpm.kernels.stress.strain_energy`). Collective."""
     p = particles
-    total = 0.0
-    for material, index in material_groups:
-        if len(index):
-            history = {k: p["h_" + k][index] for k in material.history}
-            total += float(np.sum(p["volume0"][index] * material.strain_energy(p["F"][index], history)))
+    table = MaterialTable(material_groups, len(p))
+    history = {k: p["h_" + k] for m, _ in material_groups for k in m.history}
+    total = stress_kernels.strain_energy(table.models, table.params, table.material_of, p["F"],
+                                         table.pack(history), p["volume0"]) if len(p) else 0.0
     return float(comm.allreduce(total))
 
 
@@ -49,14 +52,15 @@ class WorkAccount:
     def add(self, forces, increments, displacement, external_start, external_end):
         """Add one step's work: ``forces`` and ``increments`` (rigid body name
         -> force, displacement over the step), the particles' displacements
-        and their external forces at the start and the end of the step. Collective."""
+        and their external forces at the start and the end of the step (None:
+        there are none). Collective."""
         work = 0.0
         for name, step in increments.items():
             previous = self.last_forces.get(name, np.zeros(len(step)))
             work += 0.5 * float(np.dot(previous + forces[name], step))
             self.displacements[name] = self.displacements.get(name, np.zeros(len(step))) + step
         local = 0.0
-        if len(displacement):
+        if len(displacement) and external_start is not None:
             local = 0.5 * float(np.sum((external_start + external_end) * displacement))
         self.total += work + self.comm.allreduce(local, op=MPI.SUM)
         self.last_forces = {name: np.array(f) for name, f in forces.items()}

@@ -10,6 +10,8 @@ written in local (ghosted) numbering.
 import numpy as np
 from petsc4py import PETSc
 
+from .kernels import reorder
+
 
 class Grid:
     """Uniform structured grid on a DMDA with ``dof = dim`` (one unknown per
@@ -54,6 +56,9 @@ class Grid:
         self.proc_sizes = np.array(self.da.getProcSizes(), dtype=np.int64)
         self._axis_ends = [np.cumsum(np.asarray(r, dtype=np.int64))
                            for r in self.da.getOwnershipRanges()]
+        self._axis_end_table = np.zeros((self.dim, int(np.max(self.proc_sizes))), dtype=np.int64)
+        for d, ends in enumerate(self._axis_ends):
+            self._axis_end_table[d, :len(ends)] = ends
 
         # Cells owned by this rank (per axis [start, end)).
         self.owned_cell_start = self.owned_start.copy()
@@ -98,6 +103,29 @@ class Grid:
     def inside(self, x):
         """True for positions inside the grid (closed box)."""
         return np.all((x >= self.lower) & (x <= self.upper), axis=1)
+
+    def contains(self, x):
+        """Do all positions ``x`` (n, dim) lie inside the grid (closed box)?
+        (False for a NaN.)"""
+        if not len(x):
+            return True
+        return bool(np.all(np.min(x, axis=0) >= self.lower) and np.all(np.max(x, axis=0) <= self.upper))
+
+    def owner_of_positions(self, x):
+        """MPI rank owning the cell that holds each position (n, dim), clipped
+        onto the grid (compiled :meth:`owner_of_cells` of :meth:`cell_of`)."""
+        out = np.empty(len(x), dtype=np.int64)
+        reorder.cell_owners(np.ascontiguousarray(x, dtype=float), self.lower, self.spacing, self.cells,
+                            self._axis_end_table, self.proc_sizes, out)
+        return out
+
+    def cell_keys(self, x, shift=None):
+        """Natural linear index of the cell holding each position + ``shift``
+        (clipped onto the grid; compiled :meth:`global_cell_index` of :meth:`cell_of`)."""
+        out = np.empty(len(x), dtype=np.int64)
+        reorder.cell_keys(np.ascontiguousarray(x, dtype=float), self.lower, self.spacing, self.cells,
+                          np.zeros(self.dim) if shift is None else np.asarray(shift, dtype=float), out)
+        return out
 
     def owner_of_cells(self, cells):
         """MPI rank owning each cell (n, dim): the owner of the cell's lower node."""

@@ -34,6 +34,7 @@ from .seeding import overlapping_bodies, particles_per_body, seed_bodies
 from .shape import make_shape
 from .solver import DEFAULT_SOLVER_OPTIONS, NewtonSolver, diagnose_solver_options
 from .stages import log_stage, log_stages
+from .steps import explicit as explicit_step
 from .transfer import grid_to_particle, particle_to_grid
 
 __all__ = ["Simulation", "SetupError", "StepFailed", "DEFAULT_SOLVER_OPTIONS"]
@@ -179,12 +180,11 @@ class Simulation:
 
     def material_groups(self):
         """[(material, particle index)] for the deformable particles."""
-        p = self.particles
-        groups = []
-        for mi, material in enumerate(self.materials):
-            bodies_of = [b for b, m in self.body_material.items() if m == mi]
-            groups.append((material, np.flatnonzero(np.isin(p["body"], bodies_of))))
-        return groups
+        lookup = np.full(len(self.body_names), -1, dtype=np.int64)
+        for body, material in self.body_material.items():
+            lookup[body] = material
+        material_of = lookup[self.particles["body"]]
+        return [(material, np.flatnonzero(material_of == mi)) for mi, material in enumerate(self.materials)]
 
     def kinetic_energy(self):
         return energy.kinetic_energy(self.particles, self.comm)
@@ -260,7 +260,10 @@ class Simulation:
         return fext
 
     def particle_external_force(self, time):
-        """The force on every material particle at ``time``: gravity and loads, (n, dim)."""
+        """The force on every material particle at ``time``: gravity and loads,
+        (n, dim); None where there are neither."""
+        if not self.loads and not np.any(self.gravity):
+            return None
         force = self.particles["mass"][:, None] * (self.gravity * self.gravity_function(time))
         loads = particle_forces(self.loads, self.particles, time, self.dim)
         return force if loads is None else force + loads
@@ -351,7 +354,7 @@ class Simulation:
             with log_stage(self.stages["Migration"]):
                 self.rebalance()
         if self.integrator.explicit:
-            return self.integrator.advance(self, dt)
+            return explicit_step.advance(self, dt)
         t0 = wallclock.perf_counter()
         with log_stage(self.stages["P2G"]):
             state, cons = self.prepare_step(dt)                   # steps 1-2
@@ -415,9 +418,8 @@ class Simulation:
 
     def check_stays_on_grid(self, new_x, new_rigid_x, dt):
         """StepFailed on every rank if a particle would leave the grid. Collective."""
-        grid = self.grid
-        outside = int(np.sum(~grid.inside(new_x))) + int(np.sum(~grid.inside(new_rigid_x)))
-        if self.comm.allreduce(outside) > 0:
+        outside = not (self.grid.contains(new_x) and self.grid.contains(new_rigid_x))
+        if self.comm.allreduce(outside, op=MPI.LOR):
             raise StepFailed(f"particles would leave the grid at step {self.step_index + 1} "
                              f"(t = {self.time + dt:.6g}); enlarge grid.lower/upper")
 
@@ -480,16 +482,18 @@ class Simulation:
             self._make_solver()
         self.step_imbalance = self.particle_imbalance()    # what the step will run with
 
-    def migrate(self):
-        """Send particles to the rank owning their cell, then check that the
-        global particle count and mass are unchanged."""
+    def migrate(self, disorder=0.0):
+        """Send particles to the rank owning their cell and sort them by
+        footprint (while more than the fraction ``disorder`` of them is out of
+        order), then check that the global particle count and mass are
+        unchanged."""
         for pset in (self.particles, self.rigid):
-            dest = self.grid.owner_of_cells(self.grid.cell_of(pset["x"]))
-            migrate(self.comm, pset, dest)
-            sort_by_footprint(pset, self.grid)
-        count = self.particles.global_count(self.comm)
-        rigid_count = self.rigid.global_count(self.comm)
-        mass = float(self.particles.global_sum(self.comm, "mass"))
+            migrate(self.comm, pset, self.grid.owner_of_positions(pset["x"]))
+            sort_by_footprint(pset, self.grid, disorder)
+        p = self.particles
+        count, rigid_count, mass = self.comm.allreduce(
+            np.array([len(p), len(self.rigid), np.sum(p["mass"]) if len(p) else 0.0]), op=MPI.SUM)
+        count, rigid_count, mass = int(count), int(rigid_count), float(mass)
         if count != self.count0 or rigid_count != self.rigid_count0 \
                 or abs(mass - self.mass0) > 1e-12 * abs(self.mass0):
             raise RuntimeError(f"particle migration lost particles: count {count} "

@@ -34,9 +34,8 @@ class RigidBody:
         positions, half_size = rigid_particles["x"][mine], rigid_particles["half_size"][mine]
         counts = np.zeros((grid.n_local_nodes, grid.dim))
         if len(positions):
-            nodes, S, _ = shape.evaluate(positions, grid.lower, grid.spacing, grid.cells, half_size)
+            local, S, _ = shape.footprint(positions, grid, half_size)
             touch = (S > 0.0).astype(float)
-            local = grid.local_node_index(nodes)
             node_counts = scatter(local, touch, grid.n_local_nodes)
             for axis in self.axes:
                 counts[:, axis] = node_counts

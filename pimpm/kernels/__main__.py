@@ -1,5 +1,5 @@
 """``python -m pimpm.kernels``: compile every kernel once (2D and 3D, every
-material model), so that the first run after installing does not wait for
+material model, implicit and explicit steps), so that the first run after installing does not wait for
 numba; scripts/setup.sh runs it. Compiled code is cached on disk
 (:mod:`pimpm.kernels.jit`). (A problem whose materials mix several models
 compiles its own particle kernel at its first run.)"""
@@ -48,6 +48,11 @@ def main():
             sim = Simulation(validate(tiny(dim, shape_functions, material)), MPI.COMM_SELF)
             sim.advance(1.0)
             sim.solver.destroy()
+        for shape_functions in ("linear", "gimp"):          # the explicit step's kernels
+            config = tiny(dim, shape_functions, MATERIALS[0])
+            config["time"] = {"integrator": "explicit", "end_time": 1.0}
+            sim = Simulation(validate(config), MPI.COMM_SELF)
+            sim.advance(0.5 * sim.stable_time_step())
     print(f"pimpm: kernels compiled in {time.perf_counter() - start:.1f} s "
           f"(cache: {CACHE_DIRECTORY})")
 

@@ -490,3 +490,87 @@ def solve_thickness(only, model, prm, F, F_inc, h_in, h_out, sigma, c, want_c, w
                 for cc in range(2):
                     for d in range(2):
                         c[a, b, cc, d] -= c[a, b, 2, 2] * c[2, 2, cc, d] / c2222
+
+
+@jit
+def _neo_hookean_energy(prm, F, h):
+    """G&W eq. 17, 20: W = mu/2 (J^(-2/3) tr C - 3) + kappa/2 (ln J)^2."""
+    J = det3(F)
+    if not (J > 0.0):
+        return np.nan
+    trC = 0.0
+    for i in range(3):
+        for j in range(3):
+            trC += F[i, j] * F[i, j]
+    lnJ = math.log(J)
+    return 0.5 * prm[0] * (J ** (-2.0 / 3.0) * trC - 3.0) + 0.5 * prm[1] * lnJ * lnJ
+
+
+@jit
+def _neo_hookean_compressible_energy(prm, F, h):
+    """MPM intro eq. 11: W = lam/4 (J^2 - 1) - (lam/2 + mu) ln J + mu/2 (tr C - 3)."""
+    mu = prm[0]
+    lam = prm[1] - 2.0 / 3.0 * mu
+    J = det3(F)
+    if not (J > 0.0):
+        return np.nan
+    trC = 0.0
+    for i in range(3):
+        for j in range(3):
+            trC += F[i, j] * F[i, j]
+    return 0.25 * lam * (J * J - 1.0) - (0.5 * lam + mu) * math.log(J) + 0.5 * mu * (trC - 3.0)
+
+
+@jit
+def _small_strain_energy(prm, h, plastic_model):
+    """1/2 eps_e : C : eps_e with eps_e = strain - plastic strain (history)."""
+    mu, kappa = prm[0], prm[1]
+    tr = 0.0
+    for i in range(3):
+        tr += h[4 * i] - (h[18 + 4 * i] if plastic_model else 0.0)
+    w = 0.0
+    for i in range(3):
+        for j in range(3):
+            e = h[3 * i + j] - (h[18 + 3 * i + j] if plastic_model else 0.0)
+            s = (kappa * tr if i == j else 0.0) + 2.0 * mu * (e - (tr / 3.0 if i == j else 0.0))
+            w += s * e
+    return 0.5 * w
+
+
+@jit
+def _linear_elastic_energy(prm, F, h):
+    return _small_strain_energy(prm, h, False)
+
+
+@jit
+def _j2_small_strain_energy(prm, F, h):
+    return _small_strain_energy(prm, h, True)
+
+
+@jit
+def _j2_finite_strain_energy(prm, F, h):
+    """kappa/2 (ln J)^2 + mu/2 (tr bbar_e - 3), bbar_e (history) made
+    unimodular first (the return map lets det bbar_e drift below 1)."""
+    J = det3(F)
+    b = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            b[i, j] = h[9 + 3 * i + j]
+    s = det3(b) ** (-1.0 / 3.0)
+    lnJ = math.log(J) if J > 0.0 else np.nan
+    return 0.5 * prm[1] * lnJ * lnJ + 0.5 * prm[0] * (s * trace3(b) - 3.0)
+
+
+@jit
+def model_energy(model, prm, F, h):
+    """Stored energy per unit reference volume of one particle of model
+    ``model`` (packed parameters ``prm``, committed history ``h``)."""
+    if model == NEO_HOOKEAN:
+        return _neo_hookean_energy(prm, F, h)
+    elif model == NEO_HOOKEAN_COMPRESSIBLE:
+        return _neo_hookean_compressible_energy(prm, F, h)
+    elif model == LINEAR_ELASTIC:
+        return _linear_elastic_energy(prm, F, h)
+    elif model == J2_SMALL_STRAIN:
+        return _j2_small_strain_energy(prm, F, h)
+    return _j2_finite_strain_energy(prm, F, h)

@@ -1,0 +1,128 @@
+"""What the particles' committed stresses and deformations give the grid and
+the energy account, compiled:
+
+* :func:`current_internal_force`: Fint_i = sum_p v_p sigma_p G_ip with v_p
+  the current volume (MPM introduction eq. 6; the axisymmetric hoop force
+  v_p sigma_thth S_ip / r_p), for the explicit step and for HHT's
+  Fint(t) on the reset grid;
+* :func:`strain_energy`: sum_p V0_p W(F_p, history_p), the stored energy.
+"""
+import numpy as np
+
+from .jit import jit
+from .material_point import model_energy
+from .particle_step import AXISYMMETRIC
+from .small import det3
+
+
+@jit
+def current_internal_force(kinematics, axes, footprint, node_index, S, G, radius, sigma, F, volume0,
+                           force):
+    """Add sum_p v_p sigma_p G_ip (v_p = V0_p det F_p, in-plane components)
+    into ``force`` (n_nodes, dim; zeroed here); axisymmetric: plus the hoop
+    force v_p sigma_22 S_ip / r_p in the radial component. ``axes`` =
+    tuple(range(dim)), ``footprint`` = tuple(range(nodes per particle)) (loops
+    of lengths known when compiling)."""
+    force[:] = 0.0
+    Fp = np.empty((3, 3))
+    for p in range(S.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                Fp[a, b] = F[p, a, b]
+        v = volume0[p] * det3(Fp)
+        for k in footprint:
+            node = node_index[p, k]
+            for a in axes:
+                s = 0.0
+                for b in axes:
+                    s += G[p, k, b] * sigma[p, a, b]
+                force[node, a] += v * s
+        if kinematics == AXISYMMETRIC:
+            h = v * sigma[p, 2, 2] / radius[p]
+            for k in footprint:
+                force[node_index[p, k], 0] += h * S[p, k]
+
+
+@jit
+def strain_energy(models, params, material_of, F, h, volume0):
+    """sum_p V0_p W_p: each particle's stored energy per reference volume
+    (:func:`pimpm.kernels.material_point.model_energy`) times its
+    reference volume."""
+    total = 0.0
+    Fp = np.empty((3, 3))
+    for p in range(F.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                Fp[a, b] = F[p, a, b]
+        m = material_of[p]
+        total += volume0[p] * model_energy(models[m], params[m], Fp, h[p])
+    return total
+
+
+@jit
+def explicit_p2g(kinematics, axes, footprint, node_index, S, G, radius, mass, velocity, sigma, F, volume0,
+                 out):
+    """The particle-to-grid pass of an explicit step in one loop (MPM intro
+    eq. 2-3 and 6): ``out`` (n_nodes, 1 + 2 dim; zeroed here) gets the
+    lumped mass sum_p S_ip m_p (column 0), the momentum sum_p S_ip m_p v_p
+    (columns 1 to dim) and the internal force of the current stresses as
+    :func:`current_internal_force` (the last dim columns)."""
+    dim = len(axes)
+    out[:] = 0.0
+    Fp = np.empty((3, 3))
+    mv = np.empty(dim)
+    f0 = 1 + dim
+    for p in range(S.shape[0]):
+        m = mass[p]
+        for a in axes:
+            mv[a] = m * velocity[p, a]
+        for a in range(3):
+            for b in range(3):
+                Fp[a, b] = F[p, a, b]
+        v = volume0[p] * det3(Fp)
+        for k in footprint:
+            node = node_index[p, k]
+            wk = S[p, k]
+            out[node, 0] += wk * m
+            for a in axes:
+                out[node, 1 + a] += wk * mv[a]
+            for a in axes:
+                s = 0.0
+                for b in axes:
+                    s += G[p, k, b] * sigma[p, a, b]
+                out[node, f0 + a] += v * s
+        if kinematics == AXISYMMETRIC:
+            h = v * sigma[p, 2, 2] / radius[p]
+            for k in footprint:
+                out[node_index[p, k], f0] += h * S[p, k]
+
+
+@jit
+def explicit_g2p(axes, footprint, node_index, S, dt, nodal, mass, velocity, x, new_velocity, new_x,
+                 momentum):
+    """The grid-to-particle pass of an explicit step in one loop (MPM intro
+    eq. 9-10): with ``nodal`` (n_nodes, 2 dim) the grid's velocity change
+    rate and new velocity, v_p += dt sum_i S_ip a_i and x_p += dt sum_i S_ip
+    v_i (into ``new_velocity``, ``new_x``); ``momentum`` (n_nodes, dim;
+    zeroed here) gets sum_p S_ip m_p v_p(t+dt), the modified update's
+    remapped momentum."""
+    dim = len(axes)
+    momentum[:] = 0.0
+    mv = np.empty(dim)
+    for p in range(S.shape[0]):
+        for c in range(2 * dim):
+            s = 0.0
+            for k in footprint:
+                s += S[p, k] * nodal[node_index[p, k], c]
+            if c < dim:
+                new_velocity[p, c] = velocity[p, c] + dt * s
+            else:
+                new_x[p, c - dim] = x[p, c - dim] + dt * s
+        m = mass[p]
+        for a in axes:
+            mv[a] = m * new_velocity[p, a]
+        for k in footprint:
+            node = node_index[p, k]
+            wk = S[p, k]
+            for a in axes:
+                momentum[node, a] += wk * mv[a]

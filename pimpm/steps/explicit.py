@@ -1,0 +1,164 @@
+"""One explicit MPM step (MPM introduction, eq. 1-10), the baseline implicit
+MPM must beat: update-stress-last (``usl``, the intro's eq. 5 with the new
+grid velocity), its modified form (``musl``, the default; Sulsky & Kaul's
+momentum formulation made explicit) or update-stress-first (``usf``). It
+shares the grid, transfers, kinematics, materials, bodies and output of the
+implicit step; every per-particle loop is a compiled kernel: the shape
+functions (:mod:`pimpm.kernels.transfer`), the stress update
+(:func:`pimpm.kernels.particle_step.evaluate_particles`, the same kinematics
+and material points as Newton's iterates) and the internal force
+(:func:`pimpm.kernels.stress.current_internal_force`)."""
+import time as wallclock
+
+import numpy as np
+
+from .. import bc
+from ..errors import StepFailed
+from ..kernels import particle_step
+from ..kernels.stress import current_internal_force, explicit_g2p, explicit_p2g
+from ..materials.update import MaterialTable
+from ..stages import log_stage
+
+_NO_RADIUS = np.zeros(0)
+#: the explicit step sorts particles by footprint only for locality in memory:
+#: not after every step, only once more than this fraction is out of order
+SORT_DISORDER = 0.05
+
+
+class ParticleStress:
+    """The stress update of an explicit step on this step's footprint:
+    F(t+dt) = (1 + dt grad v) F(t) (MPM intro eq. 13-14; the axisymmetric hoop
+    stretch 1 + dt v_r / r) and every particle's stress and history, in one
+    compiled loop; the internal force of the particles' current stresses."""
+
+    def __init__(self, sim, node_index, S, G):
+        p = sim.particles
+        self.sim = sim
+        self.node_index, self.S, self.G = node_index, S, G
+        self.active = np.ones(S.shape, dtype=np.bool_)     # footprint entries outside the body add zero
+        self.table = MaterialTable(sim.material_groups(), len(p))
+        self.history = sim.particle_history()
+        radius = sim.kinematics.radius(p["x"])
+        self.radius = _NO_RADIUS if radius is None else radius
+        self.axes = tuple(range(sim.dim))
+        self.footprint = tuple(range(S.shape[1]))
+
+    def particle_to_grid(self):
+        """Ghosted-local (n_nodes, 1 + 2 dim): mass, momentum and the internal
+        force of the current stresses (:func:`pimpm.kernels.stress.explicit_p2g`)."""
+        sim, p = self.sim, self.sim.particles
+        nodal = np.empty((sim.grid.n_local_nodes, 1 + 2 * sim.dim))
+        explicit_p2g(sim.kinematics.kernel_code, self.axes, self.footprint, self.node_index, self.S, self.G,
+                     self.radius, p["mass"], p["v"], p["stress"], p["F"], p["volume0"], nodal)
+        return nodal
+
+    def grid_to_particle(self, a_local, v_local, dt):
+        """The particles' new velocities and positions for the ghosted-local
+        grid velocity change rate ``a_local`` and new velocity ``v_local``,
+        and their new momenta on the ghosted-local nodes."""
+        sim, p = self.sim, self.sim.particles
+        n, dim = len(p), sim.dim
+        new_v, new_x = np.empty((n, dim)), np.empty((n, dim))
+        momentum = np.empty((sim.grid.n_local_nodes, dim))
+        explicit_g2p(self.axes, self.footprint, self.node_index, self.S, dt, np.hstack([a_local, v_local]),
+                     p["mass"], p["v"], p["x"], new_v, new_x, momentum)
+        return new_v, new_x, momentum
+
+    def internal_force(self):
+        """Fint (MPM intro eq. 6) of the particles' current stresses, summed
+        to owned dofs. Collective."""
+        sim, p = self.sim, self.sim.particles
+        force = np.empty((sim.grid.n_local_nodes, sim.dim))
+        current_internal_force(sim.kinematics.kernel_code, self.axes, self.footprint, self.node_index,
+                               self.S, self.G, self.radius, p["stress"], p["F"], p["volume0"], force)
+        return sim.grid.sum_to_owned(force)
+
+    def update(self, v_local, dt, saved):
+        """Deform the particles with the ghosted-local grid velocity
+        ``v_local`` over dt and update their stresses; StepFailed on every
+        rank (the fields in ``saved`` restored) if a particle would invert.
+        Collective."""
+        sim, p, table = self.sim, self.sim.particles, self.table
+        n, dim = len(p), sim.dim
+        F_inc, F, sigma = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3))
+        packed = table.pack(self.history)
+        h_out = np.empty_like(packed)
+        inverted = particle_step.evaluate_particles(
+            sim.kinematics.kernel_code, self.axes, self.footprint, dt * v_local, self.node_index,
+            self.active, self.S, self.G, self.radius, p["F"], p["volume0"], table.only_model, table.models,
+            table.params, table.material_of, packed, False, False, F_inc, F, sigma, h_out,
+            np.empty((0, dim)), np.empty((0,) + (dim,) * 4), np.empty((0, 2 * dim * dim + 1)),
+            np.empty((0, 3, 3, 3, 3)))
+        if sim.comm.allreduce(inverted):
+            p.fields.update(saved)
+            raise StepFailed(f"a particle inverted at step {sim.step_index + 1} "
+                             f"(t = {sim.time + dt:.6g}, dt = {dt:.6g})")
+        p["F"], p["stress"] = F, sigma
+        self.history = table.unpack(h_out, self.history)
+        for name, values in self.history.items():
+            p["h_" + name] = values
+
+
+def advance(sim, dt):
+    """One explicit step of ``sim`` (a :class:`pimpm.simulation.Simulation`).
+    Returns the step's data; raises StepFailed, leaving the particles as they
+    were."""
+    t0 = wallclock.perf_counter()
+    comm, grid, p, dim = sim.comm, sim.grid, sim.particles, sim.dim
+    with log_stage(sim.stages["P2G"]):
+        node_index, S, G = sim.footprint()
+        stress = ParticleStress(sim, node_index, S, G)
+        nodal = stress.particle_to_grid()                                 # eq. 2-3, 6
+        mass = grid.sum_scalar_to_owned(nodal[:, 0])
+        has_mass = mass > sim.mass_floor
+        safe_mass = np.where(has_mass, mass, 1.0)
+        velocity = np.where(has_mass, grid.sum_to_owned(nodal[:, 1:1 + dim]) / safe_mass, 0.0)
+        fext = sim.nodal_external_force(node_index, S, mass, sim.time)      # eq. 4
+        cons = bc.build_constraints(grid, sim.shape, sim.rigid, sim.rigid_bodies,
+                                    sim.boundary, mass, dt, sim.mass_floor,
+                                    time=sim.time, functions=sim.functions)
+        velocity = np.where(cons.fixed, cons.value / dt, velocity)
+        update = sim.config["time"]["stress_update"]
+        saved = {k: p[k] for k in ["F", "stress"] + ["h_" + n for n in sim.history_fields()]}
+        if update == "usf":                                   # stress from the velocity at t
+            stress.update(grid.owned_to_local(velocity), dt, saved)
+            fint = stress.internal_force()
+        else:
+            fint = grid.sum_to_owned(nodal[:, 1 + dim:])
+    with log_stage(sim.stages["G2P"]):
+        acceleration = np.where(has_mass, (fext - fint) / safe_mass, 0.0)        # eq. 1
+        v_new = velocity + acceleration * dt                                     # eq. 7
+        v_new = np.where(cons.fixed, cons.value / dt, v_new)
+        acceleration = np.where(cons.fixed, 0.0, acceleration)
+        # the force the bodies apply
+        forces = cons.reactions(mass * (v_new - velocity) / dt - fext + fint, comm, dim)
+        v_local = grid.owned_to_local(v_new)
+        new_v, new_x, momentum = stress.grid_to_particle(grid.owned_to_local((v_new - velocity) / dt),
+                                                         v_local, dt)             # eq. 9-10
+        increments, rigid_moves = sim.rigid_increments(dt)
+        new_rigid_x = sim.rigid["x"] + rigid_moves
+        try:
+            sim.check_stays_on_grid(new_x, new_rigid_x, dt)
+        except StepFailed:
+            p.fields.update(saved)
+            raise
+        if update == "usl":                       # stress from the new grid velocity
+            stress.update(v_local, dt, saved)
+        elif update == "musl":
+            # modified USL: the velocity gradient comes from the updated
+            # particle momenta mapped back to the grid, which keeps nodes
+            # with tiny mass (body edges) from driving huge strain rates
+            remapped = np.where(has_mass, grid.sum_to_owned(momentum) / safe_mass, 0.0)
+            remapped = np.where(cons.fixed, cons.value / dt, remapped)
+            stress.update(grid.owned_to_local(remapped), dt, saved)
+        sim.work.add(forces, increments, new_x - p["x"], sim.particle_external_force(sim.time),
+                     sim.particle_external_force(sim.time))
+        p["v"], p["x"] = new_v, new_x
+        p["a"] = np.zeros_like(new_v)
+        sim.rigid["x"] = new_rigid_x
+    with log_stage(sim.stages["Migration"]):
+        sim.migrate(disorder=SORT_DISORDER)
+    return sim.finish_step(dt, t0, forces, {"mass": mass, "velocity": v_new,
+                                            "acceleration": acceleration,
+                                            "displacement_increment": v_new * dt},
+                           explicit=True)
