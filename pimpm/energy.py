@@ -5,7 +5,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .kernels import stress as stress_kernels
-from .materials.update import MaterialTable
+from .materials.table import MaterialTable
 
 
 def kinetic_energy(particles, comm):

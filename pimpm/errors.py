@@ -13,3 +13,9 @@ class StepFailed(Exception):
 
 class UsageError(Exception):
     """Bad use (existing output directory, ...): exit status 2, nothing written."""
+
+
+#: why a step failed when a plane-stress particle found no thickness with sigma_33 = 0
+#: (pimpm.kernels.material_point.solve_thickness)
+THICKNESS_FAILURE = ("the plane-stress thickness stretch of a particle did not converge "
+                     "(no sigma_33 = 0 within 50 local Newton iterations)")

@@ -37,10 +37,6 @@ class PlaneStrain:
         """F_inc = 1 + grad u (G&W step 5), (n, 3, 3)."""
         return assembly.deformation_increment(grad_u)
 
-    def material_update(self, material, F, history, tangent, F_inc=None):
-        """Stress, tangent and new history at the material point."""
-        return material.update(F, history, tangent)
-
     def internal_force_pairs(self, sigma, F_inc, G, S, volume, radius):
         """Per (particle, node) internal force (n, nn, dim): V_p P_p G_ip with
         P = J_inc sigma F_inc^-T relative to the configuration at t (volume at
@@ -80,31 +76,6 @@ class PlaneStress(PlaneStrain):
     name = "plane_stress"
     solves_thickness = True
     kernel_code = particle_step.PLANE_STRESS
-
-    def material_update(self, material, F, history, tangent, F_inc=None):
-        """A vectorised local Newton for F33 so that sigma33 = 0
-        (d sigma33 / d ln F33 = c3333 + sigma33); F and F_inc are updated in
-        place; the tangent is condensed, c_abcd - c_ab33 c_33cd / c_3333."""
-        if len(F) == 0:
-            return material.update(F, history, tangent)
-        for _ in range(50):
-            sigma, c, new = material.update(F, history, True)
-            s33 = sigma[:, 2, 2]
-            scale = np.abs(c[:, 2, 2, 2, 2]) + np.abs(sigma).max(axis=(1, 2))
-            if np.all(np.abs(s33) <= 1e-13 * scale):
-                break
-            step = np.exp(-s33 / (c[:, 2, 2, 2, 2] + s33))
-            F[:, 2, 2] *= step
-            if F_inc is not None:
-                F_inc[:, 2, 2] *= step
-        if tangent:
-            c = c.copy()
-            c[:, :2, :2, :2, :2] -= (c[:, :2, :2, 2, 2][:, :, :, None, None]
-                                     * c[:, 2, 2, :2, :2][:, None, None, :, :]
-                                     / c[:, 2, 2, 2, 2][:, None, None, None, None])
-        else:
-            c = None
-        return sigma, c, new
 
 
 class Axisymmetric(PlaneStrain):

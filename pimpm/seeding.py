@@ -167,8 +167,8 @@ def seed_file_body(grid, geometry, id_offset, axisymmetric=False):
 def seed_bodies(config, grid, kinematics, densities, history_fields):
     """Material and rigid particle sets of all bodies in ``config``, sorted
     by cell. ``densities``: body index -> density of its material (deformable
-    bodies only); ``history_fields``: name -> per-particle shape of the
-    materials' history variables (identity-initialised where a tensor)."""
+    bodies only); ``history_fields``: name -> (per-particle shape, initial value) of the
+    materials' history variables (:attr:`pimpm.materials.Model.initial_history`)."""
     dim = grid.dim
     mat = {k: [] for k in ("x", "volume0", "id", "body", "v", "density", "half_size", "surface")}
     rig = {k: [] for k in ("x", "id", "body", "v", "half_size")}
@@ -214,9 +214,7 @@ def seed_bodies(config, grid, kinematics, densities, history_fields):
         "body": cat(rig["body"], (0,), np.int64), "id": cat(rig["id"], (0,), np.int64),
         "half_size": cat(rig["half_size"], (0, dim)),
     })
-    for name, shape in history_fields.items():
-        identity = name in ("deformation_gradient", "elastic_left_cauchy_green")
-        initial = np.broadcast_to(np.eye(3), (n, 3, 3)) if identity else 0.0
+    for name, (shape, initial) in history_fields.items():
         particles["h_" + name] = np.zeros((n,) + tuple(shape)) + initial
     sort_by_footprint(particles, grid)
     sort_by_footprint(rigid, grid)

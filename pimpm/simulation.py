@@ -13,7 +13,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import assembly, bc, energy, faults, resources, weak_nodes
-from .errors import SetupError, StepFailed
+from .errors import THICKNESS_FAILURE, SetupError, StepFailed
 from .grid import Grid
 from .implicit import StepProblem, StepState, TangentPattern, constraint_scale, residual_scale
 from .integrators import make_integrator
@@ -24,7 +24,7 @@ from .kernels import transfer as transfer_kernels
 from .kinematics import make_kinematics
 from .materials import make_material
 from .materials import tensors
-from .materials.update import MaterialTable
+from .materials.table import MaterialTable
 from .loads import displacement as load_displacement
 from .loads import make_loads, particle_forces
 from .options import pimpm_option
@@ -73,8 +73,10 @@ class Simulation:
         self.work = energy.WorkAccount(comm)     # work of rigid bodies and gravity so far
         if checkpoint is None:
             densities = {i: self.materials[m].density for i, m in self.body_material.items()}
-            self.particles, self.rigid = seed_bodies(config, self.grid, self.kinematics, densities,
-                                                     self.history_fields())
+            initial = {}
+            for material in self.materials:
+                initial.update(material.model.initial_history())
+            self.particles, self.rigid = seed_bodies(config, self.grid, self.kinematics, densities, initial)
             self._check_every_body_has_particles()
             overlap = overlapping_bodies(config, self.particles, self.grid, comm)
             if overlap:
@@ -360,7 +362,8 @@ class Simulation:
             state, cons = self.prepare_step(dt)                   # steps 1-2
         u, info = self.solver.solve(state, self.initial_guess(state), self.step_index + 1)   # steps 3-6
         if not info["converged"]:
-            why = "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"]
+            why = (THICKNESS_FAILURE if info["thickness_failed"] else
+                   "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"])
             raise StepFailed(f"Newton did not converge at step {self.step_index + 1} "
                              f"(t = {self.time + dt:.6g}, dt = {dt:.6g}): {why} after "
                              f"{info['newton_iterations']} iterations")

@@ -376,6 +376,7 @@ class NewtonSolver:
             "linear_fallbacks": (self.fallback.fallbacks - fallbacks_before) if self.fallback else 0,
             "residual_history": np.array(norms, dtype=float),
             "inverted": bool(self.grid.comm.allreduce(problem.inverted)),
+            "thickness_failed": bool(self.grid.comm.allreduce(problem.thickness_failed)),
         }
         return self.X.getArray(readonly=True).copy(), info
 

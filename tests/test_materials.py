@@ -1,17 +1,21 @@
-"""Tests for pimpm.materials.
+"""Tests of the hyperelastic models, compiled (pimpm.materials, the code
+that runs) and their numpy references (tests/reference/materials.py).
 
-Both models are checked against their strain energies (Guilkey & Weiss 2003,
-eq. 17-20; MPM introduction eq. 11) by finite differences, so the stress
-formulas (G&W eq. 18, the corrected intro eq. 12) and the spatial elasticity
-tensors (G&W eq. 21, and the derived compressible tangent) are verified
-independently of how they were written.
+Every model is checked against its strain energy (Guilkey & Weiss 2003,
+eq. 17-20; MPM introduction eq. 11; Hencky's W = lam/2 (tr eps)^2 + mu
+eps:eps) by finite differences, so the stress formulas (G&W eq. 18, the
+corrected intro eq. 12, tau = lam tr(eps) 1 + 2 mu eps) and the spatial
+elasticity tensors (G&W eq. 21, the derived compressible and Hencky
+tangents) are verified independently of how they were written.
 """
 import warnings
 
 import numpy as np
 import pytest
 
-from pimpm import materials as M
+from pimpm import materials as P
+from reference import materials as M
+from reference.compiled import Compiled
 
 # Moduli of the G&W elastic billet (section 5.1): mu = 6e6, kappa = 6e7, rho = 10.
 MU, KAPPA, RHO = 6.0e6, 6.0e7, 10.0
@@ -19,9 +23,24 @@ LAM = KAPPA - 2.0 / 3.0 * MU
 I3 = np.eye(3)
 
 
-@pytest.fixture(params=[M.UncoupledNeoHookean, M.CompressibleNeoHookean], ids=lambda c: c.name)
+HYPERELASTIC = ["neo_hookean", "neo_hookean_compressible", "hencky"]
+
+
+def compiled(name):
+    return Compiled(P.make_material({"model": name, "density": RHO, "shear_modulus": MU,
+                                     "bulk_modulus": KAPPA}))
+
+
+@pytest.fixture(params=[(kind, name) for name in HYPERELASTIC for kind in ("compiled", "reference")],
+                ids=lambda p: f"{p[1]}-{p[0]}")
 def mat(request):
-    return request.param(MU, KAPPA, RHO)
+    kind, name = request.param
+    return compiled(name) if kind == "compiled" else M.REFERENCES[name](MU, KAPPA, RHO)
+
+
+@pytest.fixture(params=HYPERELASTIC)
+def reference_mat(request):
+    return M.REFERENCES[request.param](MU, KAPPA, RHO)
 
 
 def random_F(n=20, seed=0, scale=0.3):
@@ -154,15 +173,15 @@ def test_small_strain_limit(mat):
 # 7. ---------------------------------------------------------------------------
 @pytest.mark.parametrize("E, nu", [(1.0e7, 0.25), (2.0e11, 0.3)])
 def test_make_material_from_youngs_and_poisson(E, nu):
-    m = M.make_material({"model": "neo_hookean", "density": 7800.0,
+    m = P.make_material({"model": "neo_hookean", "density": 7800.0,
                          "youngs_modulus": E, "poisson_ratio": nu, "other_key": "ignored"})
     mu, kappa = E / (2 * (1 + nu)), E / (3 * (1 - 2 * nu))
-    assert isinstance(m, M.UncoupledNeoHookean)
+    assert m.model is P.MODELS["neo_hookean"]
     assert m.shear_modulus == pytest.approx(mu, rel=1e-14)
     assert m.bulk_modulus == pytest.approx(kappa, rel=1e-14)
     assert m.density == 7800.0
     # small-strain tangent reproduces E, nu through the Voigt constants C11, C12
-    _, c = m.stress_and_tangent(I3[None])
+    _, c = Compiled(m).stress_and_tangent(I3[None])
     C11, C12 = c[0, 0, 0, 0, 0], c[0, 0, 0, 1, 1]
     assert C11 == pytest.approx(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)), rel=1e-12)
     assert C12 == pytest.approx(E * nu / ((1 + nu) * (1 - 2 * nu)), rel=1e-12)
@@ -171,19 +190,33 @@ def test_make_material_from_youngs_and_poisson(E, nu):
 def test_make_material_from_shear_and_bulk_and_registry():
     spec = {"model": "neo_hookean_compressible", "density": RHO,
             "shear_modulus": MU, "bulk_modulus": KAPPA}
-    m = M.make_material(spec)
-    assert type(m) is M.CompressibleNeoHookean and m.name == "neo_hookean_compressible"
+    m = P.make_material(spec)
+    assert m.model is P.MODELS["neo_hookean_compressible"] and m.name == "neo_hookean_compressible"
     assert (m.shear_modulus, m.bulk_modulus, m.density) == (MU, KAPPA, RHO)
     assert m.lame_lambda == pytest.approx(LAM)
-    assert M.elastic_moduli(spec) == (MU, KAPPA)
+    assert P.elastic_moduli(spec) == (MU, KAPPA)
     assert m.wave_speed() == pytest.approx(np.sqrt((KAPPA + 4 / 3 * MU) / RHO), rel=1e-14)
-    for name, cls in M.MODELS.items():
-        assert cls.name == name
+    # the registry's order is the kernels' codes, and every model has a numpy reference
+    assert [model.code for model in P.MODELS.values()] == list(range(len(P.MODELS)))
+    for name, model in P.MODELS.items():
+        assert model.name == name and name in M.REFERENCES
     with pytest.raises(ValueError):
-        M.make_material({"model": "no_such_model", "density": 1.0, "shear_modulus": 1.0,
+        P.make_material({"model": "no_such_model", "density": 1.0, "shear_modulus": 1.0,
                          "bulk_modulus": 1.0})
     with pytest.raises(ValueError):
-        M.make_material({"model": "neo_hookean", "density": 1.0, "shear_modulus": 1.0})
+        P.make_material({"model": "neo_hookean", "density": 1.0, "shear_modulus": 1.0})
+
+
+def test_parameters_are_packed_in_declaration_order_with_absent_values():
+    m = P.make_material({"model": "j2_finite_strain", "density": 1.0, "shear_modulus": 2.0,
+                         "bulk_modulus": 3.0, "yield_stress": 0.5, "softening_strain": None})
+    assert list(m.packed_parameters()) == [2.0, 3.0, 0.5, 0.0, np.inf, 0.0]
+    assert m.yield_stress == 0.5 and m.softening_strain == np.inf
+    assert list(P.make_material({"model": "hencky", "density": 1.0, "shear_modulus": 2.0,
+                                 "bulk_modulus": 3.0}).packed_parameters()) == [2.0, 3.0]
+    with pytest.raises(ValueError, match="needs yield_stress"):
+        P.make_material({"model": "j2_small_strain", "density": 1.0, "shear_modulus": 2.0,
+                         "bulk_modulus": 3.0})
 
 
 def test_von_mises():
@@ -213,7 +246,8 @@ def test_inverted_F_gives_nan_without_exception(mat):
 
 
 # Extra interface checks -------------------------------------------------------
-def test_vectorised_matches_single_particle_and_shapes(mat):
+def test_vectorised_matches_single_particle_and_shapes(reference_mat):
+    mat = reference_mat
     F = all_F()
     sigma, c = mat.stress_and_tangent(F)
     assert sigma.shape == (len(F), 3, 3) and c.shape == (len(F), 3, 3, 3, 3)

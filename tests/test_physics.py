@@ -19,7 +19,7 @@ from mpi4py import MPI
 
 from helpers import ROOT
 from pimpm.config import load_config, validate
-from pimpm.materials import make_material
+from reference.materials import make_reference as make_material
 from pimpm.simulation import Simulation
 
 

@@ -1,11 +1,19 @@
 """Small-strain J2 plasticity (Sulsky & Kaul 2004 eq. 2.1.13-2.1.19): the
 return mapping, its algorithmic tangent, plastic work, the uniaxial
-stress-strain curve, and the linear elastic small-strain model."""
+stress-strain curve, and the linear elastic small-strain model; and
+finite-strain J2: all through the compiled material points."""
 import numpy as np
 import pytest
 
-from pimpm.materials import make_material
-from pimpm.materials.small_strain import yield_stress
+from pimpm import materials
+from reference.compiled import Compiled
+from reference.materials import yield_stress
+
+
+def make_material(spec):
+    """The material through its compiled kernels (the code that runs; the
+    numpy references are compared with them in tests/test_kernels.py)."""
+    return Compiled(materials.make_material(spec))
 
 E, NU = 1000.0, 0.3
 SPEC = {"model": "j2_small_strain", "youngs_modulus": E, "poisson_ratio": NU, "density": 10.0,

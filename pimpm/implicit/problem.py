@@ -17,7 +17,7 @@ from petsc4py import PETSc
 
 from .. import coo, faults, interrupt
 from ..kernels import particle_step
-from ..materials.base import youngs_modulus
+from ..materials.model import youngs_modulus
 from ..stages import log_stage
 from ..transfer import scatter
 from .momentum import assemble_projection, project_displacement
@@ -69,11 +69,12 @@ class ParticleEvaluation:
         self.hoop = np.empty((n if axisymmetric else 0, 2 * dim * dim + 1))
         self.c = np.empty((n if full_tangent else 0, 3, 3, 3, 3))
         self.inverted = 0
+        self.unconverged = 0          # plane stress: particles whose thickness solve failed
 
     def evaluate(self, state, u_local, dim):
         """Fill everything for ``u_local`` (G&W step 5 and the internal force)."""
         st, mt = state, state.materials
-        self.inverted = particle_step.evaluate_particles(
+        self.inverted, self.unconverged = particle_step.evaluate_particles(
             st.kinematics.kernel_code, tuple(range(dim)), tuple(range(st.S.shape[1])), u_local,
             st.node_index, st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS,
             st.F_n, st.volume_n, mt.only_model, mt.models, mt.params, mt.material_of, st.history_packed, True, True,
@@ -112,6 +113,7 @@ class StepProblem:
         self.state = None
         self.step = 0
         self.inverted = False            # did a residual or Jacobian meet an inverted particle?
+        self.thickness_failed = False    # ... or a plane-stress thickness solve that failed?
         self.residual_evaluations = 0
         self.diag = grid.da.createGlobalVec()
         self.row_offset = self.diag.getOwnershipRange()[0]
@@ -127,6 +129,7 @@ class StepProblem:
         self.state = state
         self.step = step
         self.inverted = False
+        self.thickness_failed = False
         self.residual_evaluations = 0
         evaluation = state.extra.get("evaluation")
         if evaluation is None or (self.matrix_free and len(evaluation.c) != len(state.F_n)):
@@ -236,11 +239,12 @@ class StepProblem:
                 evaluation.evaluate(st, kinematic, self.grid.dim)
         # one reduction tells every rank about inverted particles and signals:
         # a run being stopped abandons its step here, on all ranks at once
-        inverted, signum = interrupt.agreed(self.grid.comm, evaluation.inverted)
+        bad, signum = interrupt.agreed(self.grid.comm, evaluation.inverted + evaluation.unconverged)
         if signum:
             raise interrupt.Interrupted(signum)
-        if inverted > 0:
+        if bad > 0:
             self.inverted = True
+            self.thickness_failed = self.grid.comm.allreduce(evaluation.unconverged) > 0
             return None
         return evaluation
 

@@ -19,7 +19,7 @@ class StepState:
     F_n: np.ndarray               # (n, 3, 3) deformation gradient at t
     volume_n: np.ndarray          # (n,) volume at t
     material_groups: list         # [(material, particle index array)]
-    materials: object             # pimpm.materials.update.MaterialTable: the kernels' view
+    materials: object             # pimpm.materials.table.MaterialTable: the kernels' view
     history_packed: np.ndarray    # (n, width) material history at t, packed for the kernels
     active: np.ndarray            # (n, nn) footprint entries with a weight or a gradient
     pattern: object               # TangentPattern: the tangent's couplings this step

@@ -13,14 +13,14 @@ petsc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
 from ..config import validate  # noqa: E402
+from ..materials import MODELS, REQUIRED  # noqa: E402
 from ..simulation import Simulation  # noqa: E402
 from .jit import CACHE_DIRECTORY  # noqa: E402
 
 
-#: one material of each model (the particle evaluation is compiled per model)
-MATERIALS = [{"model": "neo_hookean"}, {"model": "neo_hookean_compressible"},
-             {"model": "linear_elastic"}, {"model": "j2_small_strain", "yield_stress": 0.1},
-             {"model": "j2_finite_strain", "yield_stress": 0.1}]
+#: one material of each registered model (the particle evaluation is compiled per model)
+MATERIALS = [dict({"model": name}, **{key: 0.1 for key, p in model.parameters.items() if p.default is REQUIRED})
+             for name, model in MODELS.items()]
 
 
 def tiny(dim, shape_functions, material):

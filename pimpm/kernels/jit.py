@@ -5,9 +5,10 @@ round-off).
 
 Where the cache lives. numba checks a cached kernel only against its own
 source file, not against the kernels it calls from other files: after an
-edit or an upgrade of one kernel module, a kernel of another module would
-keep running the old code. So the cache directory is named after a hash of
-every kernel module's source: ``pimpm/kernels/__pycache__/numba-<hash>/``
+edit or an upgrade of one kernel module or material model, a kernel of
+another module would keep running the old code. So the cache directory is
+named after a hash of every kernel module's and material model's source:
+``pimpm/kernels/__pycache__/numba-<hash>/``
 (or under ``$NUMBA_CACHE_DIR``, or ``~/.cache/pimpm`` where the package
 directory is read-only). A changed source gets a fresh cache.
 """
@@ -19,14 +20,19 @@ import numba
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+#: the packages whose modules hold compiled code: the kernels and the material models
+COMPILED_PACKAGES = (HERE, os.path.join(os.path.dirname(HERE), "materials"))
+
+
 def source_hash():
-    """Hash of the kernel modules' sources (names and contents)."""
+    """Hash of the compiled modules' sources (names and contents)."""
     digest = hashlib.sha256()
-    for name in sorted(os.listdir(HERE)):
-        if name.endswith(".py"):
-            digest.update(name.encode())
-            with open(os.path.join(HERE, name), "rb") as f:
-                digest.update(f.read())
+    for package in COMPILED_PACKAGES:
+        for name in sorted(os.listdir(package)):
+            if name.endswith(".py"):
+                digest.update(name.encode())
+                with open(os.path.join(package, name), "rb") as f:
+                    digest.update(f.read())
     return digest.hexdigest()[:16]
 
 

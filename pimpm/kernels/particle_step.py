@@ -51,7 +51,7 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     v (c_2222 + sigma_22) (:func:`_hoop_terms`); ``c`` (n, 3, 3, 3, 3), the full spatial tangent,
     only if it has rows (the matrix-free product wants it). Returns the
     number of particles whose increment inverts them (det F_inc <= 0, full
-    3x3). ``axes`` = tuple(range(dim)) and ``footprint`` = tuple(range(nodes
+    3x3) and the number whose plane-stress thickness solve did not converge. ``axes`` = tuple(range(dim)) and ``footprint`` = tuple(range(nodes
     per particle)): a tuple's length is known when compiling, so each
     dimension and footprint size gets loops of fixed length (measured: the
     linear billet's evaluation 6% faster than with the footprint's length
@@ -89,6 +89,7 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     if want_force:
         force[:] = 0.0
     inverted = 0
+    unconverged = 0
     for p in range(n):
         grad[:] = 0.0
         for k in range(nn):
@@ -106,7 +107,8 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
             for k in range(nn):
                 u_r += S[p, k] * u[node_index[p, k], 0]
             Fi[2, 2] = 1.0 + u_r / radius[p]
-        if not (det3(Fi) > 0.0):
+        increment_inverts = not (det3(Fi) > 0.0)
+        if increment_inverts:
             inverted += 1
         for a in range(3):
             for b in range(3):
@@ -119,7 +121,10 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
         for k in range(n_params):
             prm[k] = params[m, k]
         if kinematics == PLANE_STRESS:
-            solve_thickness(only_model, models[m], prm, Fp, Fi, hi, ho, sp, c_scratch, want_tangent, w, D)
+            converged = solve_thickness(only_model, models[m], prm, Fp, Fi, hi, ho, sp, c_scratch, want_tangent,
+                                        w, D)
+            if not converged and not increment_inverts:
+                unconverged += 1
         else:
             model_point(only_model, models[m], prm, Fp, hi, ho, sp, c_scratch, want_tangent, w, D,
                         in_plane)
@@ -166,7 +171,7 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
             h = V * (J_inc * sp[2, 2] / Fi[2, 2]) / radius[p]
             for k in range(nn):
                 force[node_index[p, k], 0] += h * S[p, k]
-    return inverted
+    return inverted, unconverged
 
 
 @jit

@@ -126,3 +126,15 @@ def explicit_g2p(axes, footprint, node_index, S, dt, nodal, mass, velocity, x, n
             wk = S[p, k]
             for a in axes:
                 momentum[node, a] += wk * mv[a]
+
+
+@jit
+def point_energies(models, params, material_of, F, h, out):
+    """out[p] = W_p, each particle's stored energy per reference volume."""
+    Fp = np.empty((3, 3))
+    for p in range(F.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                Fp[a, b] = F[p, a, b]
+        m = material_of[p]
+        out[p] = model_energy(models[m], params[m], Fp, h[p])

@@ -1,29 +1,36 @@
-"""Material models. One module per family:
+"""Material models: one module per model (or per family), each declaring
+its name, parameters, history fields and compiled point and energy
+functions (:mod:`.model`):
 
-* :mod:`.neo_hookean`: the uncoupled neo-Hookean of Guilkey & Weiss eq. 17-21
-  and the compressible one of the MPM introduction, eq. 11;
+* :mod:`.neo_hookean`: the uncoupled neo-Hookean of Guilkey & Weiss eq. 17-21;
+* :mod:`.neo_hookean_compressible`: the compressible neo-Hookean of the MPM
+  introduction, eq. 11;
 * :mod:`.small_strain`: linear elasticity and von Mises plasticity with
   Sulsky & Kaul's bilinear hardening (eq. 2.1.13-2.1.19) in the accumulated
   small strain;
-* :mod:`.finite_plasticity`: finite-strain von Mises plasticity
+* :mod:`.j2_finite_strain`: finite-strain von Mises plasticity
   (multiplicative split, exact consistent tangent);
-* :mod:`.tensors`: small-matrix helpers; :mod:`.base`: the interface;
-  :mod:`.update`: the stress update of all particles, material by material.
+* :mod:`.hencky`: Hencky's logarithmic-strain hyperelasticity.
 
-:data:`MODELS` is the registry: the input schema and :func:`make_material`
-both come from it and from each model's ``parameters`` table.
+:data:`MODELS` is the registry: a new model is one module and one line
+here. Its position is the model's code in the compiled kernels; the input
+schema reads each model's ``parameters``. :mod:`.table` packs the materials
+of a run for the kernels; :mod:`.tensors` has numpy helpers for output.
 """
-from .base import REQUIRED, Material, Parameter, elastic_moduli, youngs_modulus
-from .finite_plasticity import J2FiniteStrain
-from .neo_hookean import (CompressibleNeoHookean, UncoupledNeoHookean, compressible_neo_hookean,
-                          compressible_neo_hookean_energy, uncoupled_neo_hookean,
-                          uncoupled_neo_hookean_energy)
-from .small_strain import J2SmallStrain, SmallStrainElastic
+from . import hencky, j2_finite_strain, neo_hookean, neo_hookean_compressible, small_strain
+from .model import REQUIRED, Material, Model, Parameter, elastic_moduli, youngs_modulus
 from .tensors import von_mises
 
-#: input name -> model class (the order is the one error messages list)
-MODELS = {cls.name: cls for cls in (UncoupledNeoHookean, CompressibleNeoHookean,
-                                    SmallStrainElastic, J2SmallStrain, J2FiniteStrain)}
+
+def _register(*models):
+    for code, model in enumerate(models):
+        model.code = code
+    return {model.name: model for model in models}
+
+
+#: input name -> Model (the order is the one error messages list, and the kernels' codes)
+MODELS = _register(neo_hookean.MODEL, neo_hookean_compressible.MODEL, small_strain.LINEAR_ELASTIC,
+                   small_strain.J2_SMALL_STRAIN, j2_finite_strain.MODEL, hencky.MODEL)
 
 
 def make_material(spec):
@@ -36,13 +43,10 @@ def make_material(spec):
         raise ValueError(f"unknown material model {model!r}; known: {sorted(MODELS)}")
     if "density" not in spec:
         raise ValueError("material spec needs a density")
-    cls = MODELS[model]
     mu, kappa = elastic_moduli(spec)
-    extra = {k: spec[k] for k in cls.parameters if spec.get(k) is not None}
-    return cls(mu, kappa, spec["density"], **extra)
+    values = {k: spec[k] for k in MODELS[model].parameters if spec.get(k) is not None}
+    return Material(MODELS[model], mu, kappa, spec["density"], **values)
 
 
-__all__ = ["MODELS", "REQUIRED", "Material", "Parameter", "make_material", "elastic_moduli", "youngs_modulus",
-           "von_mises", "UncoupledNeoHookean", "CompressibleNeoHookean", "SmallStrainElastic",
-           "J2SmallStrain", "J2FiniteStrain", "uncoupled_neo_hookean", "uncoupled_neo_hookean_energy",
-           "compressible_neo_hookean", "compressible_neo_hookean_energy"]
+__all__ = ["MODELS", "REQUIRED", "Material", "Model", "Parameter", "make_material", "elastic_moduli",
+           "youngs_modulus", "von_mises"]

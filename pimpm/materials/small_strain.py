@@ -1,7 +1,8 @@
 """Small-strain models embedded in the finite-deformation solver: linear
-elasticity and J2 (von Mises) plasticity with the bilinear hardening /
-softening of Sulsky & Kaul (2004) eq. 2.1.13-2.1.19, radial return and its
-algorithmic tangent. Pure functions of arrays.
+elasticity (``linear_elastic``) and J2 (von Mises) plasticity
+(``j2_small_strain``) with the bilinear hardening / softening of Sulsky &
+Kaul (2004) eq. 2.1.13-2.1.19, radial return (Simo & Hughes Box 3.2) and
+its algorithmic tangent.
 
 The strain is accumulated step by step, eps = eps_n + sym(F_inc) - 1 with
 F_inc = F F_n^-1 the increment since the last converged step (the rate form
@@ -15,146 +16,152 @@ H tau + tau H^T for F -> (1 + H) F, so d eps = sym(H F_inc)):
     c_abcd = sigma_ab d_cd + D_abce (F_inc)_de - d_ac sigma_db - d_bc sigma_ad
 
 with D the (algorithmic) small-strain tangent d sigma / d eps. It has no
-minor symmetry in general, which the assembly does not assume.
+minor symmetry in general, which the assembly does not assume. Not
+objective: for small rotations.
 """
-import numpy as np
+import math
 
-from ..kernels import material_point as kernel_codes
-from .base import Material, PlasticParameters
-from .tensors import I3, II, IDEV, as_F as _as_F
+from ..kernels.jit import jit
+from ..kernels.small import trace3
+from .common import SQ32, identity_dyad, strain_increment, sym_identity, yield_stress
+from .model import PLASTICITY, Model, history_offsets
 
-
-def small_strain(F):
-    return 0.5 * (F + np.swapaxes(F, -1, -2)) - I3
-
-
-def strain_increment(F, F_n):
-    """eps increment sym(F F_n^-1) - 1 and the increment F_inc = F F_n^-1."""
-    F_inc = np.matmul(F, np.linalg.inv(F_n))
-    return small_strain(F_inc), F_inc
+ELASTIC_HISTORY = {"strain": (3, 3), "deformation_gradient": (3, 3)}
+PLASTIC_HISTORY = dict(ELASTIC_HISTORY, plastic_strain=(3, 3), eq_plastic_strain=(), plastic_work=())
+_H = history_offsets(PLASTIC_HISTORY)
+STRAIN, DEFORMATION_GRADIENT, PLASTIC_STRAIN = _H["strain"], _H["deformation_gradient"], _H["plastic_strain"]
+EQ_PLASTIC_STRAIN, PLASTIC_WORK = _H["eq_plastic_strain"], _H["plastic_work"]
 
 
-def spatial_tangent(sigma, D, F):
-    """c from the small-strain tangent D (see the module docstring; F is the
-    increment F_inc)."""
-    c = np.einsum("pab,cd->pabcd", sigma, I3)
-    c += np.einsum("pabce,pde->pabcd", D, F)
-    c -= np.einsum("ac,pdb->pabcd", I3, sigma)
-    c -= np.einsum("bc,pad->pabcd", I3, sigma)
-    return c
+@jit
+def _small_strain_tangent(sigma, D, F_inc, c):
+    """c_abcd = sigma_ab d_cd + D_abce F_inc_de - d_ac sigma_db - d_bc sigma_ad."""
+    for a in range(3):
+        for b in range(3):
+            for cc in range(3):
+                for d in range(3):
+                    s = sigma[a, b] * (1.0 if cc == d else 0.0)
+                    for e in range(3):
+                        s += D[a, b, cc, e] * F_inc[d, e]
+                    if a == cc:
+                        s -= sigma[d, b]
+                    if b == cc:
+                        s -= sigma[a, d]
+                    c[a, b, cc, d] = s
 
 
-def yield_stress(alpha, tau0, h1, alpha_l, h2):
-    """Sulsky & Kaul eq. 2.1.19: tau0 + h1 alpha up to alpha_l, then
-    softening (or hardening) with slope -h2."""
-    if not np.isfinite(alpha_l):
-        return tau0 + h1 * alpha
-    tau_l = tau0 + h1 * alpha_l
-    return np.where(alpha <= alpha_l, tau0 + h1 * alpha, tau_l - h2 * (alpha - alpha_l))
+@jit
+def small_strain_point(F, prm, h_in, h_out, plastic_model, sigma, c, want_c, w, D):
+    """Hooke's law (``plastic_model`` False) or radial return in the
+    accumulated small strain (module docstring)."""
+    mu, kappa, tau0, h1, alpha_l, h2 = prm[0], prm[1], 0.0, 0.0, math.inf, 0.0
+    if plastic_model:
+        tau0, h1, alpha_l, h2 = prm[2], prm[3], prm[4], prm[5]
+    F_inc = strain_increment(F, h_in, DEFORMATION_GRADIENT, w)
+    eps = w[3]
+    for i in range(3):
+        for j in range(3):
+            eps[i, j] = (h_in[STRAIN + 3 * i + j] + 0.5 * (F_inc[i, j] + F_inc[j, i])
+                         - (1.0 if i == j else 0.0))
+            h_out[STRAIN + 3 * i + j] = eps[i, j]
+            h_out[DEFORMATION_GRADIENT + 3 * i + j] = F[i, j]
+    eps_e = w[4]
+    for i in range(3):
+        for j in range(3):
+            eps_e[i, j] = eps[i, j] - (h_in[PLASTIC_STRAIN + 3 * i + j] if plastic_model else 0.0)
+    tr = trace3(eps_e)
+    s_trial = w[5]
+    norm2 = 0.0
+    for i in range(3):
+        for j in range(3):
+            s_trial[i, j] = 2.0 * mu * (eps_e[i, j] - (tr / 3.0 if i == j else 0.0))
+            norm2 += s_trial[i, j] * s_trial[i, j]
+    norm = math.sqrt(norm2)
+    d_alpha = 0.0
+    theta = 1.0
+    theta_bar = 0.0
+    plastic = False
+    if plastic_model:
+        alpha = h_in[EQ_PLASTIC_STRAIN]
+        q_trial = SQ32 * norm
+        f_trial = q_trial - yield_stress(alpha, tau0, h1, alpha_l, h2)
+        plastic = f_trial > 1e-12 * max(tau0, 1e-300)
+        if plastic:
+            slope = h1 if alpha < alpha_l else -h2
+            d_alpha = f_trial / (3.0 * mu + slope)
+            if alpha < alpha_l and alpha + d_alpha > alpha_l:      # crosses into softening
+                tau_l = tau0 + h1 * alpha_l
+                d2 = (q_trial - tau_l - 3.0 * mu * (alpha_l - alpha)) / (3.0 * mu - h2)
+                d_alpha = (alpha_l - alpha) + d2
+                slope = -h2
+            theta = 1.0 - 3.0 * mu * d_alpha / (q_trial if q_trial > 0 else 1.0)
+            theta_bar = 1.0 / (1.0 + slope / (3.0 * mu)) - (1.0 - theta)
+    safe = norm if norm > 0 else 1.0
+    unit = w[6]
+    work = 0.0
+    for i in range(3):
+        for j in range(3):
+            unit[i, j] = s_trial[i, j] / safe
+            s = s_trial[i, j] - 2.0 * mu * SQ32 * d_alpha * unit[i, j]
+            sigma[i, j] = (kappa * tr if i == j else 0.0) + s
+            if plastic_model:
+                dp = SQ32 * d_alpha * unit[i, j]
+                h_out[PLASTIC_STRAIN + 3 * i + j] = h_in[PLASTIC_STRAIN + 3 * i + j] + dp
+                work += s * dp
+    if plastic_model:
+        h_out[EQ_PLASTIC_STRAIN] = h_in[EQ_PLASTIC_STRAIN] + d_alpha
+        h_out[PLASTIC_WORK] = h_in[PLASTIC_WORK] + work
+    if want_c:
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    for m in range(3):
+                        ii = identity_dyad(i, j, k, m)
+                        D[i, j, k, m] = (kappa * ii + 2.0 * mu * theta * (sym_identity(i, j, k, m) - ii / 3.0)
+                                         - 2.0 * mu * theta_bar * unit[i, j] * unit[k, m])
+        _small_strain_tangent(sigma, D, F_inc, c)
 
 
-def j2_return(eps, eps_p, alpha, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0.0):
-    """Radial return for von Mises plasticity with piecewise-linear isotropic
-    hardening. Returns sigma, D (algorithmic tangent), eps_p_new, alpha_new,
-    plastic work increment density."""
-    eps_e = eps - eps_p
-    tr = np.trace(eps_e, axis1=1, axis2=2)
-    dev = eps_e - tr[:, None, None] / 3.0 * I3
-    s_trial = 2.0 * mu * dev
-    norm = np.sqrt(np.sum(s_trial * s_trial, axis=(1, 2)))
-    q_trial = np.sqrt(1.5) * norm
-    f_trial = q_trial - yield_stress(alpha, tau0, h1, alpha_l, h2)
-    plastic = f_trial > 1e-12 * max(tau0, 1e-300)
-    # Delta alpha on the segment alpha_n is on, then on the softening segment if crossed
-    slope = np.where(alpha < alpha_l, h1, -h2)
-    d_alpha = np.where(plastic, f_trial / (3.0 * mu + slope), 0.0)
-    crossed = plastic & (alpha < alpha_l) & (alpha + d_alpha > alpha_l)
-    if np.any(crossed):
-        tau_l = tau0 + h1 * alpha_l
-        d2 = (q_trial - tau_l - 3.0 * mu * (alpha_l - alpha)) / (3.0 * mu - h2)
-        d_alpha = np.where(crossed, (alpha_l - alpha) + d2, d_alpha)
-        slope = np.where(crossed, -h2, slope)
-    safe = np.where(norm > 0, norm, 1.0)
-    unit = s_trial / safe[:, None, None]
-    s = s_trial - (2.0 * mu * np.sqrt(1.5) * d_alpha)[:, None, None] * unit
-    sigma = kappa * tr[:, None, None] * I3 + s
-    eps_p_new = eps_p + (np.sqrt(1.5) * d_alpha)[:, None, None] * unit
-    alpha_new = alpha + d_alpha
-    # algorithmic tangent (Simo & Hughes, Box 3.2 in terms of q)
-    theta = np.where(plastic, 1.0 - 3.0 * mu * d_alpha / np.where(q_trial > 0, q_trial, 1.0), 1.0)
-    theta_bar = np.where(plastic, 1.0 / (1.0 + slope / (3.0 * mu)) - (1.0 - theta), 0.0)
-    D = (kappa * II + 2.0 * mu * theta[:, None, None, None, None] * IDEV
-         - 2.0 * mu * theta_bar[:, None, None, None, None] * np.einsum("pab,pcd->pabcd", unit, unit))
-    work = np.sum(s * (eps_p_new - eps_p), axis=(1, 2))
-    return sigma, D, eps_p_new, alpha_new, work
+@jit
+def small_strain_energy(prm, h, plastic_model):
+    """1/2 eps_e : C : eps_e with eps_e = strain - plastic strain (history)."""
+    mu, kappa = prm[0], prm[1]
+    tr = 0.0
+    for i in range(3):
+        tr += h[STRAIN + 4 * i] - (h[PLASTIC_STRAIN + 4 * i] if plastic_model else 0.0)
+    w = 0.0
+    for i in range(3):
+        for j in range(3):
+            e = h[STRAIN + 3 * i + j] - (h[PLASTIC_STRAIN + 3 * i + j] if plastic_model else 0.0)
+            s = (kappa * tr if i == j else 0.0) + 2.0 * mu * (e - (tr / 3.0 if i == j else 0.0))
+            w += s * e
+    return 0.5 * w
 
 
-class SmallStrainElastic(Material):
-    """Linear elasticity in the accumulated small strain (Sulsky & Kaul's
-    bars; the functions above). Not objective: for small rotations."""
-
-    name = "linear_elastic"
-    kernel_model = kernel_codes.LINEAR_ELASTIC
-    # measured 5% asymmetric for j2_small_strain (tests/mpi/jacobian_check.py);
-    # linear_elastic shares its kinematics and is not measured: LU for both
-    symmetric_tangent = False
-    history = {"strain": (3, 3), "deformation_gradient": (3, 3)}
-
-    def _hooke(self, eps):
-        tr = np.trace(eps, axis1=-2, axis2=-1)[..., None, None]
-        return self.bulk_modulus * tr * I3 + 2.0 * self.shear_modulus * (eps - tr / 3.0 * I3)
-
-    def _strain(self, F, history):
-        if history and "strain" in history:
-            d_eps, F_inc = strain_increment(F, history["deformation_gradient"])
-            return history["strain"] + d_eps, F_inc
-        return small_strain(F), F      # no history: total small strain
-
-    def update(self, F, history, tangent=True):
-        F = _as_F(F)
-        eps, F_inc = self._strain(F, history)
-        sigma = self._hooke(eps)
-        c = None
-        if tangent:
-            D = self.bulk_modulus * II + 2.0 * self.shear_modulus * IDEV
-            c = spatial_tangent(sigma, np.broadcast_to(D, (len(F),) + D.shape), F_inc)
-        return sigma, c, {"strain": eps, "deformation_gradient": F.copy()}
-
-    def _kernel(self, F, tangent):
-        sigma, c, _ = self.update(F, {}, tangent)
-        return sigma, c
-
-    def strain_energy(self, F, history=None):
-        eps = history["strain"] if history else small_strain(_as_F(F))
-        eps_p = history.get("plastic_strain", 0.0) if history else 0.0
-        return 0.5 * np.sum(self._hooke(eps - eps_p) * (eps - eps_p), axis=(-2, -1))
-
-    def _energy(self, F):
-        return self.strain_energy(F)
+@jit
+def elastic_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    small_strain_point(F, prm, h_in, h_out, False, sigma, c, want_c, w, D)
 
 
-class J2SmallStrain(PlasticParameters, SmallStrainElastic):
-    """Small-strain von Mises plasticity with the bilinear hardening /
-    softening of Sulsky & Kaul eq. 2.1.19 and radial return; history:
-    accumulated strain, plastic strain, equivalent plastic strain, plastic
-    work density."""
+@jit
+def elastic_energy(prm, F, h):
+    return small_strain_energy(prm, h, False)
 
-    name = "j2_small_strain"
-    kernel_model = kernel_codes.J2_SMALL_STRAIN
-    history = {"strain": (3, 3), "deformation_gradient": (3, 3), "plastic_strain": (3, 3),
-               "eq_plastic_strain": (), "plastic_work": ()}
 
-    def update(self, F, history, tangent=True):
-        F = _as_F(F)
-        eps, F_inc = self._strain(F, history)
-        n = len(F)
-        eps_p = history.get("plastic_strain", np.zeros((n, 3, 3))) if history else np.zeros((n, 3, 3))
-        alpha = history.get("eq_plastic_strain", np.zeros(n)) if history else np.zeros(n)
-        work0 = history.get("plastic_work", np.zeros(n)) if history else np.zeros(n)
-        sigma, D, eps_p_new, alpha_new, work = j2_return(
-            eps, eps_p, alpha, self.shear_modulus, self.bulk_modulus, self.yield_stress,
-            self.hardening_modulus, self.softening_strain, self.softening_modulus)
-        c = spatial_tangent(sigma, D, F_inc) if tangent else None
-        return sigma, c, {"strain": eps, "deformation_gradient": F.copy(),
-                          "plastic_strain": eps_p_new, "eq_plastic_strain": alpha_new,
-                          "plastic_work": work0 + work}
+@jit
+def plastic_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    small_strain_point(F, prm, h_in, h_out, True, sigma, c, want_c, w, D)
+
+
+@jit
+def plastic_energy(prm, F, h):
+    return small_strain_energy(prm, h, True)
+
+
+# measured 5% asymmetric for j2_small_strain (tests/mpi/jacobian_check.py);
+# linear_elastic shares its kinematics and is not measured: LU for both
+LINEAR_ELASTIC = Model("linear_elastic", elastic_point, elastic_energy, history=ELASTIC_HISTORY,
+                       symmetric_tangent=False, identity_history=("deformation_gradient",))
+J2_SMALL_STRAIN = Model("j2_small_strain", plastic_point, plastic_energy, parameters=PLASTICITY,
+                        history=PLASTIC_HISTORY, symmetric_tangent=False,
+                        identity_history=("deformation_gradient",))

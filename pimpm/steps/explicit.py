@@ -13,10 +13,10 @@ import time as wallclock
 import numpy as np
 
 from .. import bc
-from ..errors import StepFailed
+from ..errors import THICKNESS_FAILURE, StepFailed
 from ..kernels import particle_step
 from ..kernels.stress import current_internal_force, explicit_g2p, explicit_p2g
-from ..materials.update import MaterialTable
+from ..materials.table import MaterialTable
 from ..stages import log_stage
 
 _NO_RADIUS = np.zeros(0)
@@ -83,16 +83,17 @@ class ParticleStress:
         F_inc, F, sigma = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3))
         packed = table.pack(self.history)
         h_out = np.empty_like(packed)
-        inverted = particle_step.evaluate_particles(
+        inverted, unconverged = particle_step.evaluate_particles(
             sim.kinematics.kernel_code, self.axes, self.footprint, dt * v_local, self.node_index,
             self.active, self.S, self.G, self.radius, p["F"], p["volume0"], table.only_model, table.models,
             table.params, table.material_of, packed, False, False, F_inc, F, sigma, h_out,
             np.empty((0, dim)), np.empty((0,) + (dim,) * 4), np.empty((0, 2 * dim * dim + 1)),
             np.empty((0, 3, 3, 3, 3)))
-        if sim.comm.allreduce(inverted):
+        inverted, unconverged = sim.comm.allreduce(np.array([inverted, unconverged]))
+        if inverted or unconverged:
             p.fields.update(saved)
-            raise StepFailed(f"a particle inverted at step {sim.step_index + 1} "
-                             f"(t = {sim.time + dt:.6g}, dt = {dt:.6g})")
+            why = THICKNESS_FAILURE if unconverged else "a particle inverted"
+            raise StepFailed(f"{why} at step {sim.step_index + 1} (t = {sim.time + dt:.6g}, dt = {dt:.6g})")
         p["F"], p["stress"] = F, sigma
         self.history = table.unpack(h_out, self.history)
         for name, values in self.history.items():

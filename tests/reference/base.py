@@ -1,58 +1,12 @@
-"""The interface every material model implements, the elastic constants and
-the plasticity parameters shared by the J2 models.
-
-Every model declares the parameters it takes beyond the elastic constants
-and the density (``parameters``: name -> :data:`Parameter`);
-the input schema (``pimpm/config/``) and the factory
-(:func:`pimpm.materials.make_material`) both read that table.
-
-Tangent convention. ``c`` is the spatial elasticity tensor
-``c_ijkl = J^-1 F_iI F_jJ F_kK F_lL 4 d2W/dC_IJ dC_KL``, i.e. the tangent of
-the Truesdell (Lie) rate of the Kirchhoff stress ``tau = J sigma`` divided by J:
-
-    L_v tau = tau_dot - l tau - tau l^T = J c : d,      d = sym(l).
-
-Hence, for ``F_eps = (I + eps H) F``,
-``d tau / d eps |_0 = J c : H + H tau + tau H^T``. The spatial tangent
-stiffness used by the implicit solver is ``c_ijkl + delta_ik sigma_jl``
-(material + geometric part).
-"""
+"""The numpy reference of the material interface: what every model of
+tests/reference computes, vectorised over particles (``F`` of shape (n, 3,
+3)). These were pimpm's production models before the compiled ones
+(pimpm.materials) replaced them; the tests compare the two to round-off and
+check both against finite differences of the energies. Tangent convention:
+:mod:`pimpm.materials.model`."""
 import numpy as np
 
-from collections import namedtuple
-
-#: marks a parameter without a default
-REQUIRED = object()
-
-#: a model parameter: its default (or REQUIRED; None: the model's own, e.g.
-#: no softening) and whether it must be positive (else any finite number)
-Parameter = namedtuple("Parameter", "default positive")
-
-
-def elastic_moduli(spec):
-    """(shear_modulus, bulk_modulus) from a material spec.
-
-    Uses ``shear_modulus`` and ``bulk_modulus`` if both are given, otherwise
-    ``youngs_modulus`` E and ``poisson_ratio`` nu:
-    mu = E / (2 (1 + nu)),  kappa = E / (3 (1 - 2 nu)).
-    """
-    if "shear_modulus" in spec and "bulk_modulus" in spec:
-        return float(spec["shear_modulus"]), float(spec["bulk_modulus"])
-    if "youngs_modulus" in spec and "poisson_ratio" in spec:
-        E = float(spec["youngs_modulus"])
-        nu = float(spec["poisson_ratio"])
-        if not (E > 0 and -1.0 < nu < 0.5):
-            raise ValueError(f"need youngs_modulus > 0 and -1 < poisson_ratio < 0.5, got E={E}, nu={nu}")
-        return E / (2.0 * (1.0 + nu)), E / (3.0 * (1.0 - 2.0 * nu))
-    raise ValueError(
-        "material spec needs either shear_modulus and bulk_modulus, "
-        "or youngs_modulus and poisson_ratio"
-    )
-
-
-def youngs_modulus(shear_modulus, bulk_modulus):
-    """E = 9 kappa mu / (3 kappa + mu)."""
-    return 9.0 * bulk_modulus * shear_modulus / (3.0 * bulk_modulus + shear_modulus)
+from pimpm.materials import MODELS, youngs_modulus
 
 
 class Material:
@@ -66,8 +20,6 @@ class Material:
     parameters = {}
     #: is the consistent tangent symmetric? (measured by tests/mpi/jacobian_check.py)
     symmetric_tangent = True
-    #: the model's code in the compiled kernels (pimpm.kernels.material_point)
-    kernel_model = None
 
     def __init__(self, shear_modulus, bulk_modulus, density):
         self.shear_modulus = float(shear_modulus)
@@ -93,10 +45,14 @@ class Material:
         """kappa + 4/3 mu (uniaxial-strain stiffness)."""
         return self.bulk_modulus + 4.0 / 3.0 * self.shear_modulus
 
+    @property
+    def code(self):
+        """The model's code in the compiled kernels (its place in the registry)."""
+        return MODELS[self.name].code
+
     def packed_parameters(self):
-        """The parameters as the compiled kernels take them: [mu, kappa, yield
-        stress, hardening modulus, softening strain, softening modulus]."""
-        return np.array([self.shear_modulus, self.bulk_modulus, 0.0, 0.0, np.inf, 0.0])
+        """The parameters as the compiled kernels take them: [mu, kappa]."""
+        return np.array([self.shear_modulus, self.bulk_modulus])
 
     def stress(self, F):
         """Cauchy stress, shape (n, 3, 3)."""
@@ -137,11 +93,6 @@ class Material:
 class PlasticParameters:
     """Yield stress and the bilinear hardening / softening of Sulsky & Kaul
     eq. 2.1.19 (mixed into the J2 models before Material)."""
-
-    parameters = {"yield_stress": Parameter(REQUIRED, True),
-                  "hardening_modulus": Parameter(0.0, False),
-                  "softening_strain": Parameter(None, True),
-                  "softening_modulus": Parameter(0.0, False)}
 
     def __init__(self, shear_modulus, bulk_modulus, density, yield_stress, hardening_modulus=0.0,
                  softening_strain=np.inf, softening_modulus=0.0):

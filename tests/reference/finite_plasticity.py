@@ -12,11 +12,10 @@ f = F F_n^-1 of the step.
 """
 import numpy as np
 
-from . import tensors
-from ..kernels import material_point as kernel_codes
+from pimpm.materials import tensors
 from .base import Material, PlasticParameters
 from .small_strain import yield_stress
-from .tensors import I3, II, IS, as_F as _as_F, outer as _outer
+from pimpm.materials.tensors import I3, II, IS, as_F as _as_F, outer as _outer
 
 SQ23 = np.sqrt(2.0 / 3.0)
 
@@ -86,7 +85,6 @@ class J2FiniteStrain(PlasticParameters, Material):
     bilinear hardening / softening."""
 
     name = "j2_finite_strain"
-    kernel_model = kernel_codes.J2_FINITE_STRAIN
     symmetric_tangent = False        # the exact return-map derivative (see tangent above)
     history = {"deformation_gradient": (3, 3), "elastic_left_cauchy_green": (3, 3),
                "eq_plastic_strain": (), "plastic_work": ()}

@@ -1,40 +1,9 @@
-"""The stress update of every particle, material by material (G&W step 5:
-stress and tangent at the trial F). Used by the implicit residual and
-tangent and by the explicit step alike."""
+"""The materials of a run as the compiled kernels take them (G&W step 5:
+stress and tangent at the trial F, for the implicit residual and tangent
+and the explicit step alike)."""
 import numpy as np
 
 from ..kernels import material_point as kernel_codes
-
-
-def update_stress(material_groups, kinematics, F, history, tangent, F_inc=None):
-    """Cauchy stress (n, 3, 3), the spatial tangent (n, 3, 3, 3, 3) or None,
-    and the history after this deformation, for every particle.
-
-    ``material_groups``: [(material, particle index)]; ``history``: the
-    values committed at t (name -> per-particle array). The kinematics does
-    the material-point work (plane stress: solves the thickness stretch and
-    writes it back into ``F`` and ``F_inc``)."""
-    n = len(F)
-    sigma = np.zeros((n, 3, 3))
-    c = np.zeros((n, 3, 3, 3, 3)) if tangent else None
-    new_history = {k: v.copy() for k, v in history.items()}
-    for material, index in material_groups:
-        if len(index) == 0:
-            continue
-        old = {k: history[k][index] for k in material.history}
-        Fi = F[index]
-        Fi_inc = F_inc[index] if F_inc is not None else None
-        s, cc, new = kinematics.material_update(material, Fi, old, tangent, Fi_inc)
-        if kinematics.solves_thickness:        # write the solved thickness stretch back
-            F[index] = Fi
-            if F_inc is not None:
-                F_inc[index] = Fi_inc
-        sigma[index] = s
-        if tangent:
-            c[index] = cc
-        for k, v in new.items():
-            new_history[k][index] = v
-    return sigma, c, new_history
 
 
 class MaterialTable:
@@ -47,8 +16,12 @@ class MaterialTable:
     def __init__(self, material_groups, n):
         self.groups = material_groups
         materials = [m for m, _ in material_groups]
-        self.models = np.array([m.kernel_model for m in materials], dtype=np.int64)
-        self.params = np.array([m.packed_parameters() for m in materials]).reshape(len(materials), 6)
+        self.models = np.array([m.code for m in materials], dtype=np.int64)
+        packed = [m.packed_parameters() for m in materials]
+        #: each material's packed parameters, padded to the widest (a model reads its own)
+        self.params = np.zeros((len(materials), max([len(p) for p in packed] + [2])))
+        for mi, values in enumerate(packed):
+            self.params[mi, :len(values)] = values
         self.material_of = np.zeros(n, dtype=np.int64)
         for mi, (_, index) in enumerate(material_groups):
             self.material_of[index] = mi
