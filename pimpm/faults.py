@@ -13,17 +13,20 @@ import os
 POINTS = ("step", "residual", "output")
 
 
-def _parse(text):
+def parse_injection(variable, what, choices):
+    """``(choice, rank, step)`` from the environment variable ``variable``
+    (``WHAT:RANK:STEP``, WHAT one of ``choices``), or None when unset."""
+    text = os.environ.get(variable, "")
     if not text:
         return None
-    where, rank, step = text.split(":")
-    if where not in POINTS:
-        raise ValueError(f"PIMPM_INJECT_FAILURE = {text!r}: expected WHERE:RANK:STEP with WHERE "
-                         f"one of {', '.join(POINTS)}")
-    return where, int(rank), int(step)
+    choice, rank, step = text.split(":")
+    if choice not in choices:
+        raise ValueError(f"{variable} = {text!r}: expected {what}:RANK:STEP with {what} "
+                         f"one of {', '.join(choices)}")
+    return choice, int(rank), int(step)
 
 
-_PLAN = _parse(os.environ.get("PIMPM_INJECT_FAILURE", ""))
+_PLAN = parse_injection("PIMPM_INJECT_FAILURE", "WHERE", POINTS)
 
 
 def checkpoint(where, rank, step):

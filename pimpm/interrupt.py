@@ -23,6 +23,8 @@ import signal
 import numpy as np
 from mpi4py import MPI
 
+from .faults import parse_injection
+
 SIGNALS = {"TERM": signal.SIGTERM, "INT": signal.SIGINT}
 
 #: the first signal received (0: none)
@@ -69,17 +71,9 @@ def check(comm):
         raise Interrupted(signum)
 
 
-def _parse(text):
-    if not text:
-        return None
-    name, rank, step = text.split(":")
-    if name not in SIGNALS:
-        raise ValueError(f"PIMPM_INJECT_SIGNAL = {text!r}: expected NAME:RANK:STEP with NAME "
-                         f"one of {', '.join(SIGNALS)}")
-    return SIGNALS[name], int(rank), int(step)
-
-
-_PLAN = _parse(os.environ.get("PIMPM_INJECT_SIGNAL", ""))
+_PLAN = parse_injection("PIMPM_INJECT_SIGNAL", "NAME", tuple(SIGNALS))
+if _PLAN is not None:
+    _PLAN = (SIGNALS[_PLAN[0]],) + _PLAN[1:]
 
 
 def inject(rank, step):

@@ -1,48 +1,13 @@
-"""Linear-solver pieces of the Newton step: solver presets, Guilkey & Weiss's
-iterative-then-direct fallback (section 3.3) and the rigid-body modes for
-GAMG. (The matrix-free tangent's product is physics: pimpm/implicit/shell.py.)
+"""Linear-solver pieces of the Newton step: Guilkey & Weiss's
+iterative-then-direct fallback (section 3.3), the direct solver on the free
+dofs and the rigid-body modes for GAMG (the presets: :mod:`pimpm.presets`;
+the matrix-free tangent's product is physics: pimpm/implicit/shell.py).
 
 All of them are configured through the PETSc options database, so every
 choice can be refined or overridden from the command line.
 """
 import numpy as np
 from petsc4py import PETSc
-
-#: GAMG settings, measured on whole runs of the 50% billet (docs/PERFORMANCE.md,
-#: scripts/bench_presets.py): plain (unsmoothed) aggregation keeps GMRES at
-#: ~37 iterations per Newton step to the end with no direct fallback, where
-#: smoothed aggregation (PETSc's default, nsmooths 1) climbs to 150 per step
-#: and falls back to MUMPS in 37 of 166 Newton steps as the billet is crushed;
-#: a drop threshold of 0.02 and 3 smoothing steps per level.
-GAMG = {"pc_type": "gamg", "pc_gamg_agg_nsmooths": "0", "pc_gamg_threshold": "0.02",
-        "mg_levels_ksp_max_it": "3"}
-
-#: name -> (PETSc options, iterative?, needs a symmetric tangent?, matrix-free?). No preset
-#: marks the tangent SPD: it is symmetric for hyperelastic materials in the
-#: velocity formulation, but the geometric stiffness of a body under
-#: compression can make it indefinite (CG reports DIVERGED_INDEFINITE_MAT at
-#: 50% on the billet), and MUMPS's SPD factorization (SYM=1) would not do then.
-PRESETS = {
-    "mumps": ({"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"},
-              False, False, False),
-    "cg-gamg": ({"ksp_type": "cg", **GAMG, "ksp_rtol": "1e-8", "ksp_max_it": "1000"},
-                True, True, False),
-    "gmres-gamg": ({"ksp_type": "gmres", **GAMG, "ksp_rtol": "1e-8",
-                    "ksp_gmres_restart": "100", "ksp_max_it": "1000"}, True, False, False),
-    # Sulsky & Kaul's Jacobian-free Newton-Krylov: the operator is the finite-
-    # difference directional derivative (their eq. 2.4.18); the assembled
-    # tangent serves only as preconditioner.
-    "jfnk": ({"snes_mf_operator": "", "ksp_type": "gmres", **GAMG, "ksp_rtol": "1e-8",
-              "ksp_gmres_restart": "100", "ksp_max_it": "1000"}, True, False, False),
-    # Fully matrix-free: a shell matrix whose product is the analytic
-    # directional derivative of the residual; Jacobi from its diagonal.
-    "matrix-free": ({"ksp_type": "gmres", "pc_type": "jacobi", "ksp_rtol": "1e-8",
-                     "ksp_gmres_restart": "200", "ksp_max_it": "5000"}, True, False, True),
-}
-
-#: the direct solver used when the iterative one fails (prefix "fallback_")
-FALLBACK_OPTIONS = {"fallback_ksp_type": "preonly", "fallback_pc_type": "lu",
-                    "fallback_pc_factor_mat_solver_type": "mumps"}
 
 
 class FallbackKSP:

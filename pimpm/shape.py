@@ -1,25 +1,17 @@
 """Grid shape functions evaluated at particles.
 
 A shape-function object maps particle positions to the grid nodes they touch,
-the weights ``S_ip`` and the gradients ``G_ip`` (MPM intro eq. 2-6). Every
-object exposes the same interface (linear tents, GIMP, quadratic B-splines);
-the wider ones need a DMDA ``stencil_width`` of 2.
+the weights ``S_ip`` and the gradients ``G_ip`` (MPM intro eq. 2-6), computed
+by the compiled kernel :func:`pimpm.kernels.transfer.footprint` (numpy
+reference: tests/reference/shape.py). Every object exposes the same
+interface (linear tents, GIMP, quadratic B-splines); the wider ones need a
+DMDA ``stencil_width`` of 2.
 """
 import itertools
 
 import numpy as np
 
 from .kernels import transfer as kernels
-
-
-def tensor_product(w, dw):
-    """Weights S = prod_d w_d and gradients G_d = dw_d prod_{e != d} w_e from
-    per-axis weights and slopes (n, nn, dim)."""
-    S = np.prod(w, axis=2)
-    G = np.empty(w.shape)
-    for d in range(w.shape[2]):  # loop over dimensions only
-        G[:, :, d] = dw[:, :, d] * np.prod(np.delete(w, d, axis=2), axis=2)
-    return S, G
 
 
 class TensorProductShape:
@@ -36,8 +28,9 @@ class TensorProductShape:
         self.nodes_per_particle = len(self.offsets)
 
     def footprint(self, x, grid, half_size=None):
-        """Compiled :meth:`evaluate` in the grid's ghosted-local numbering:
-        ``(node_index, S, G)`` with node_index (n, nn) ghosted-local nodes."""
+        """``(node_index, S, G)`` at positions ``x`` (n, dim) in the grid's
+        ghosted-local numbering: node_index (n, nn) ghosted-local nodes,
+        S (n, nn) weights, G (n, nn, dim) gradients in physical units."""
         n, nn = len(x), self.nodes_per_particle
         node_index = np.empty((n, nn), dtype=np.int64)
         S = np.empty((n, nn))
@@ -48,6 +41,21 @@ class TensorProductShape:
                           grid.ghost_shape, node_index, S, G)
         return node_index, S, G
 
+    def evaluate(self, x, lower, spacing, cells, half_size=None):
+        """The same on a whole grid box (``lower``, ``spacing``, ``cells``),
+        in global node multi-indices: ``(nodes, S, G)`` with nodes (n, nn,
+        dim), x fastest. For scripts and tests that have no DMDA."""
+        cells = np.asarray(cells, dtype=np.int64)
+        n, nn = len(x), self.nodes_per_particle
+        node_index = np.empty((n, nn), dtype=np.int64)
+        S, G = np.empty((n, nn)), np.empty((n, nn, self.dim))
+        half = np.zeros((0, self.dim)) if half_size is None else np.ascontiguousarray(half_size, dtype=float)
+        kernels.footprint(self.kernel_kind, tuple(range(self.dim)), np.ascontiguousarray(x, dtype=float),
+                          np.asarray(lower, dtype=float), np.asarray(spacing, dtype=float), cells, half,
+                          np.zeros(self.dim, dtype=np.int64), cells + 1, node_index, S, G)
+        nodes = np.stack(np.unravel_index(node_index, tuple((cells + 1)[::-1]))[::-1], axis=-1)
+        return nodes, S, G
+
 
 class LinearShape(TensorProductShape):
     """Bilinear / trilinear tent functions (MPM intro Fig. 2-3): each particle
@@ -56,51 +64,6 @@ class LinearShape(TensorProductShape):
     name = "linear"
     stencil_width = 1
     kernel_kind = kernels.LINEAR
-
-    def evaluate(self, x, lower, spacing, cells, half_size=None):
-        """Return ``(nodes, S, G)`` for positions ``x`` (n, dim):
-
-        nodes (n, nn, dim) global node multi-indices,
-        S (n, nn) weights (partition of unity),
-        G (n, nn, dim) gradients in physical units.
-        """
-        xi = (x - lower) / spacing
-        base = np.clip(np.floor(xi).astype(np.int64), 0, cells - 1)
-        frac = xi - base                                    # (n, dim) in [0, 1]
-        o = self.offsets[None, :, :]                        # (1, nn, dim)
-        f = frac[:, None, :]                                # (n, 1, dim)
-        w = np.where(o == 1, f, 1.0 - f)                    # 1D weights (n, nn, dim)
-        dw = np.where(o == 1, 1.0, -1.0) / spacing          # 1D slopes (1, nn, dim)
-        S, G = tensor_product(w, dw)
-        nodes = base[:, None, :] + o
-        return nodes, S, G
-
-
-def make_shape(name, dim):
-    if name not in SHAPES:
-        raise ValueError(f"unknown shape functions {name!r}")
-    return SHAPES[name](dim)
-
-
-def _gimp_1d(r, l):
-    """uGIMP weight and slope (per unit r) in cell units: the linear hat
-    averaged over a particle of half-length l (<= 1/2) centred at r from the
-    node (Bardenhagen & Kober 2004)."""
-    a = np.abs(r)
-    s = np.sign(r)
-    w = np.zeros_like(r)
-    dw = np.zeros_like(r)
-    inner = a < l
-    middle = (a >= l) & (a < 1.0 - l)
-    outer = (a >= 1.0 - l) & (a < 1.0 + l)
-    w[inner] = 1.0 - (r[inner] ** 2 + l[inner] ** 2) / (2.0 * l[inner])
-    dw[inner] = -r[inner] / l[inner]
-    w[middle] = 1.0 - a[middle]
-    dw[middle] = -s[middle]
-    q = 1.0 + l[outer] - a[outer]
-    w[outer] = q ** 2 / (4.0 * l[outer])
-    dw[outer] = -s[outer] * q / (2.0 * l[outer])
-    return w, dw
 
 
 class GIMPShape(TensorProductShape):
@@ -116,33 +79,6 @@ class GIMPShape(TensorProductShape):
     stencil_width = 2
     nodes_per_axis = 3
     kernel_kind = kernels.GIMP
-
-    def evaluate(self, x, lower, spacing, cells, half_size=None):
-        xi = (x - lower) / spacing
-        if half_size is None:
-            raise ValueError("GIMP needs the particle half sizes")
-        l = half_size / spacing                                   # (n, dim) in cell units
-        base = np.floor(xi + 0.5).astype(np.int64) - 1            # nearest node - 1
-        nodes = base[:, None, :] + self.offsets[None, :, :]       # (n, nn, dim)
-        r = xi[:, None, :] - nodes
-        lb = np.broadcast_to(l[:, None, :], r.shape)
-        w, dw = _gimp_1d(r.ravel(), lb.ravel())
-        w, dw = w.reshape(r.shape), dw.reshape(r.shape)
-        outside = (nodes < 0) | (nodes > cells)
-        w[outside] = 0.0
-        dw[outside] = 0.0
-        nodes = np.clip(nodes, 0, cells)
-        S, G = tensor_product(w, dw / spacing)
-        return nodes, S, G
-
-
-def _bspline2_1d(r):
-    """Uniform quadratic B-spline centred on a node: weight and slope (per
-    unit r) at distance r in cell units (support |r| < 3/2, C1)."""
-    a = np.abs(r)
-    w = np.where(a < 0.5, 0.75 - r ** 2, np.where(a < 1.5, 0.5 * (1.5 - a) ** 2, 0.0))
-    dw = np.where(a < 0.5, -2.0 * r, np.where(a < 1.5, -np.sign(r) * (1.5 - a), 0.0))
-    return w, dw
 
 
 class QuadraticBSplineShape(TensorProductShape):
@@ -164,37 +100,12 @@ class QuadraticBSplineShape(TensorProductShape):
     nodes_per_axis = 3
     kernel_kind = kernels.BSPLINE
 
-    @staticmethod
-    def weights_1d(xi, cells):
-        """Per-axis nodes (n, 3), weights and slopes in cell units for
-        positions ``xi`` (n,) in cell units, boundary-modified at 0 and ``cells``."""
-        base = np.floor(xi + 0.5).astype(np.int64) - 1                 # nearest node - 1
-        nodes = base[:, None] + np.arange(3)[None, :]
-        w, dw = _bspline2_1d(xi[:, None] - nodes)
-        low = base < 0                                                 # phantom node -1 at slot 0
-        high = base + 2 > cells                                        # phantom node cells+1 at slot 2
-        for mask, phantom, face, inner in ((low, 0, 1, 2), (high, 2, 1, 0)):
-            for a in (w, dw):
-                a[mask, face] += 2.0 * a[mask, phantom]
-                a[mask, inner] -= a[mask, phantom]
-                a[mask, phantom] = 0.0
-        return np.clip(nodes, 0, cells), w, dw
-
-    def evaluate(self, x, lower, spacing, cells, half_size=None):
-        xi = (x - lower) / spacing
-        n = len(x)
-        per_axis = [self.weights_1d(xi[:, d], int(cells[d])) for d in range(self.dim)]
-        o = self.offsets
-        nodes = np.empty((n, self.nodes_per_particle, self.dim), dtype=np.int64)
-        w = np.empty((n, self.nodes_per_particle, self.dim))
-        dw = np.empty_like(w)
-        for d, (nd, wd, dwd) in enumerate(per_axis):                   # loop over dimensions only
-            nodes[:, :, d] = nd[:, o[:, d]]
-            w[:, :, d] = wd[:, o[:, d]]
-            dw[:, :, d] = dwd[:, o[:, d]] / spacing[d]
-        S, G = tensor_product(w, dw)
-        return nodes, S, G
-
 
 #: ``grid.shape_functions`` name -> shape-function class
 SHAPES = {cls.name: cls for cls in (LinearShape, GIMPShape, QuadraticBSplineShape)}
+
+
+def make_shape(name, dim):
+    if name not in SHAPES:
+        raise ValueError(f"unknown shape functions {name!r}")
+    return SHAPES[name](dim)

@@ -12,14 +12,16 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import assembly, bc, energy, faults, resources, weak_nodes
+from . import bc, energy, faults, resources, weak_nodes
 from .errors import THICKNESS_FAILURE, SetupError, StepFailed
 from .grid import Grid
 from .implicit import StepProblem, StepState, TangentPattern, constraint_scale, residual_scale
+from .implicit.momentum import group_by_node_set
 from .integrators import make_integrator
 from .integrators.explicit import stable_time_step
 from .functions import lookup, make_functions
 from .kernels import pattern as kernel_pattern
+from .kernels import stress as stress_kernels
 from .kernels import transfer as transfer_kernels
 from .kinematics import make_kinematics
 from .materials import make_material
@@ -330,13 +332,17 @@ class Simulation:
             fixed=cons.fixed, fixed_value=cons.value,
             constraint_scale=constraint_scale(self.materials, grid, self.integrator, dt))
         if self.config["time"]["formulation"] == "momentum":    # the projection's blocks
-            order, starts = assembly.group_by_node_set(node_index, grid.n_local_nodes)
+            order, starts = group_by_node_set(node_index, grid.n_local_nodes)
             state.group_order, state.group_starts = order, starts
             state.group_nodes = node_index[order][starts]
         if self.integrator.needs_previous_force:     # HHT: Fint(t) - Fext(t) on the reset grid
-            self.problem.begin(state)
             fext_now = self.nodal_external_force(node_index, S, mass, self.time)
-            state.previous_force = self.problem.internal_force(p["stress"], None) - fext_now
+            force = np.empty((grid.n_local_nodes, self.dim))
+            radius = state.radius if state.radius is not None else np.zeros(0)
+            stress_kernels.current_internal_force(self.kinematics.kernel_code, tuple(range(self.dim)),
+                                                  tuple(range(S.shape[1])), node_index, S, G, radius,
+                                                  p["stress"], p["F"], p["volume0"], force)
+            state.previous_force = grid.sum_to_owned(force) - fext_now
         return state, cons
 
     def initial_guess(self, state):

@@ -13,7 +13,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .convergence import GuilkeyWeissTest
-from .linear import FALLBACK_OPTIONS, PRESETS, FallbackKSP, FreeDofsKSP, rigid_body_near_null_space
+from . import presets
+from .linear import FallbackKSP, FreeDofsKSP, rigid_body_near_null_space
+from .presets import FALLBACK_OPTIONS, PRESETS
 from .options import pimpm_option
 from .stages import log_stage
 
@@ -160,8 +162,10 @@ class NewtonSolver:
         self.preset = pimpm_option("pimpm_preset", solver_config["preset"])
         if self.preset not in PRESETS:
             raise ValueError(f"-pimpm_preset {self.preset}: expected one of {', '.join(PRESETS)}")
-        preset_options, iterative, needs_symmetry, self.matrix_free = PRESETS[self.preset]
-        if needs_symmetry and not problem.symmetric:
+        preset_options = PRESETS[self.preset]
+        iterative = presets.iterative(preset_options)
+        self.matrix_free = presets.matrix_free(preset_options)
+        if presets.needs_symmetric_tangent(preset_options) and not problem.symmetric:
             where = "-pimpm_preset" if db.hasName("pimpm_preset") else "solver.preset"
             raise ValueError(f"{where} = {self.preset!r}: expected a preset for non-symmetric "
                              f"tangents (gmres-gamg, mumps, jfnk or matrix-free) with {problem.asymmetry}")
@@ -169,7 +173,7 @@ class NewtonSolver:
         fallback = pimpm_option("pimpm_fallback", bool(solver_config["fallback"]))
         use_fallback = iterative and not self.matrix_free and fallback
         options = dict(default_options)
-        options.update(preset_options)
+        options.update(presets.petsc_options(preset_options))
         if use_fallback:
             options.update(FALLBACK_OPTIONS)
         if problem.symmetric:

@@ -14,21 +14,6 @@ def _c(a):
     return np.ascontiguousarray(a, dtype=float)
 
 
-def scatter(node_index, values, n_nodes):
-    """Sum per-pair ``values`` into nodes.
-
-    node_index (n, nn) ghosted-local node index of each pair;
-    values (n, nn) or (n, nn, k); returns (n_nodes,) or (n_nodes, k).
-    """
-    pairs = _c(values)
-    scalar = pairs.ndim == 2
-    if scalar:
-        pairs = pairs[:, :, None]
-    out = np.empty((n_nodes, pairs.shape[2]))
-    kernels.scatter_pairs(np.ascontiguousarray(node_index), pairs, out)
-    return out[:, 0] if scalar else out
-
-
 def particle_to_grid(node_index, S, particle_values, n_nodes):
     """MPM intro eq. 2-4: sum_p S_ip q_p for per-particle ``particle_values``
     (n,) or (n, k)."""
@@ -46,12 +31,4 @@ def grid_to_particle(node_index, S, nodal_values):
     nodal = _c(nodal_values)
     out = np.empty((len(node_index), nodal.shape[1]))
     kernels.gather(np.ascontiguousarray(node_index), _c(S), nodal, out)
-    return out
-
-
-def gradient_at_particles(node_index, G, nodal_values):
-    """sum_i q_i (x) G_ip: (n, k, dim) gradient of a nodal field (MPM intro eq. 5)."""
-    nodal = _c(nodal_values)
-    out = np.empty((len(node_index), nodal.shape[1], G.shape[2]))
-    kernels.gradient(np.ascontiguousarray(node_index), _c(G), nodal, out)
     return out

@@ -1,7 +1,7 @@
 """Particles are grouped for assembly by the whole list of nodes they touch."""
 import numpy as np
 
-from pimpm.assembly import group_by_node_set
+from pimpm.implicit.momentum import group_by_node_set
 
 
 def groups(node_index):

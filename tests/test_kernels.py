@@ -14,7 +14,8 @@ import petsc4py
 petsc4py.init([])
 from mpi4py import MPI  # noqa: E402
 
-from pimpm import assembly  # noqa: E402
+from reference import kinematics as RK  # noqa: E402
+from reference import shape as reference_shape  # noqa: E402
 from reference import materials as M  # noqa: E402
 from reference.update import material_update, update_stress  # noqa: E402
 from pimpm.config import validate  # noqa: E402
@@ -25,7 +26,7 @@ from pimpm.kinematics import PlaneStress  # noqa: E402
 from pimpm.materials import MODELS as REGISTRY  # noqa: E402
 from pimpm.materials.table import MaterialTable  # noqa: E402
 from pimpm.simulation import Simulation  # noqa: E402
-from pimpm.transfer import gradient_at_particles, grid_to_particle, scatter  # noqa: E402
+from pimpm.transfer import grid_to_particle  # noqa: E402
 
 RNG = np.random.default_rng(7)
 PLASTIC = dict(yield_stress=2.0e5, hardening_modulus=1.0e6)
@@ -152,14 +153,14 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
     grid, dim = sim.grid, sim.dim
     u = 0.01 * RNG.standard_normal((grid.n_local_nodes, dim))
     # numpy reference: kinematics, stress update, internal force, element blocks
-    grad = gradient_at_particles(st.node_index, st.G, u)
-    F_inc = st.kinematics.deformation_increment(grad, st.radius,
-                                                lambda: grid_to_particle(st.node_index, st.S, u))
+    grad = RK.gradient(st.node_index, st.G, u)
+    F_inc = RK.deformation_increment(st.kinematics, grad, st.radius,
+                                     lambda: grid_to_particle(st.node_index, st.S, u))
     F = np.matmul(F_inc, st.F_n)
     sigma, c, history = update_stress(st.material_groups, st.kinematics, F, st.history, True, F_inc)
-    pairs = st.kinematics.internal_force_pairs(sigma, F_inc, st.G, st.S, st.volume_n, st.radius)
-    force = scatter(st.node_index, pairs, grid.n_local_nodes)
-    blocks = st.kinematics.element_tangents(sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius)
+    pairs = RK.internal_force_pairs(st.kinematics, sigma, F_inc, st.G, st.S, st.volume_n, st.radius)
+    force = RK.scatter_pairs(st.node_index, pairs, grid.n_local_nodes)
+    blocks = RK.element_tangents(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius)
     n, nn = st.S.shape
     dense = np.zeros((grid.n_local_nodes * dim,) * 2)
     dofs = (st.node_index[:, :, None] * dim + np.arange(dim)).reshape(n, nn * dim)
@@ -167,7 +168,7 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
         dense[np.ix_(dofs[p], dofs[p])] += blocks[p]
     # compiled
     sim.problem.begin(st)
-    ev = ParticleEvaluation(st, grid.n_local_nodes, dim, full_tangent=True)
+    ev = ParticleEvaluation(st, grid.n_local_nodes, dim)
     assert shape != "gimp" or np.any(~st.active)       # inactive entries are skipped
     ev.evaluate(st, u, dim)
     assert ev.inverted == 0
@@ -175,17 +176,19 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
     assert relative(ev.sigma, sigma) < 1e-10
     assert relative(ev.force, force) < 1e-10
     volume = st.volume_n * np.linalg.det(F_inc)
-    if kinematics == "plane_stress":       # the in-plane part is condensed
-        assert relative(ev.c[:, :2, :2, :2, :2], c[:, :2, :2, :2, :2]) < 1e-10
-    else:
-        assert relative(ev.c, c) < 1e-10
     assert relative(ev.tangent, volume[:, None, None, None, None]
-                    * assembly.spatial_tangent(sigma, c, dim)) < 1e-10
-    # without the full c kept (the assembled path), plane strain computes only the
-    # in-plane entries of the neo-Hookean tangent: the same stiffness density
-    in_plane = ParticleEvaluation(st, grid.n_local_nodes, dim)
-    in_plane.evaluate(st, u, dim)
-    assert np.array_equal(in_plane.tangent, ev.tangent) and np.array_equal(in_plane.sigma, ev.sigma)
+                    * RK.spatial_tangent(sigma, c, dim)) < 1e-10
+    # the matrix-free product and the diagonal of the same stiffness
+    radius = st.radius if st.radius is not None else np.zeros(0)
+    arguments = (st.kinematics.kernel_code, tuple(range(dim)), tuple(range(st.S.shape[1])), st.node_index,
+                 st.active, st.S, st.G, radius, ev.F_inc, ev.tangent, ev.hoop)
+    x = RNG.standard_normal((grid.n_local_nodes, dim))
+    product = np.empty_like(x)
+    particle_step.tangent_product(*arguments, x, product)
+    assert relative(product.reshape(-1), dense @ x.reshape(-1)) < 1e-10
+    diagonal = np.empty_like(x)
+    particle_step.tangent_diagonal(*arguments, diagonal)
+    assert relative(diagonal.reshape(-1), np.diag(dense)) < 1e-10
     new = st.committed_history(ev.history)
     for name in st.materials.groups[0][0].history:
         assert relative(new[name], history[name]) < 1e-10, name
@@ -233,13 +236,15 @@ def test_a_table_of_several_models_dispatches_each_particle_to_its_own():
     st, _ = sim.prepare_step(0.01)
     assert st.materials.only_model == mp.model_tag(mp.MIXED) == ()
     u = 0.05 * RNG.standard_normal((sim.grid.n_local_nodes, 2))
-    grad = gradient_at_particles(st.node_index, st.G, u)
-    F = np.matmul(st.kinematics.deformation_increment(grad, st.radius, None), st.F_n)
+    grad = RK.gradient(st.node_index, st.G, u)
+    F = np.matmul(RK.deformation_increment(st.kinematics, grad, st.radius, None), st.F_n)
     sigma, c, history = update_stress(st.material_groups, st.kinematics, F, st.history, True)
     sim.problem.begin(st)
-    mixed = ParticleEvaluation(st, sim.grid.n_local_nodes, 2, full_tangent=True)
+    mixed = ParticleEvaluation(st, sim.grid.n_local_nodes, 2)
     mixed.evaluate(st, u, 2)
-    assert relative(mixed.sigma, sigma) < 1e-10 and relative(mixed.c, c) < 1e-10
+    volume = st.volume_n * np.linalg.det(F @ np.linalg.inv(st.F_n))
+    assert relative(mixed.sigma, sigma) < 1e-10
+    assert relative(mixed.tangent, volume[:, None, None, None, None] * RK.spatial_tangent(sigma, c, 2)) < 1e-10
     new = st.committed_history(mixed.history)
     assert relative(new["eq_plastic_strain"], history["eq_plastic_strain"]) < 1e-10
     assert np.sum(new["eq_plastic_strain"] > 0) > 0           # the plastic branch is exercised
@@ -255,7 +260,7 @@ def test_a_table_of_several_models_dispatches_each_particle_to_its_own():
         st.G[metal], np.zeros(0), st.F_n[metal], st.volume_n[metal], table.only_model, table.models,
         table.params, table.material_of, st.history_packed[metal][:, :table.width], True, False,
         out[0], out[1], out[2], h_out, np.empty((sim.grid.n_local_nodes, 2)),
-        np.empty((len(metal), 2, 2, 2, 2)), np.empty((0, 9)), np.empty((0, 3, 3, 3, 3)))
+        np.empty((len(metal), 2, 2, 2, 2)), np.empty((0, 9)))
     assert np.array_equal(out[2], mixed.sigma[metal])
 
 
@@ -282,14 +287,14 @@ def test_compiled_footprint_equals_the_numpy_shape_functions(shape_name, dim):
     shape = make_shape(shape_name, dim)
     x = RNG.uniform(0.0, 1.0, (500, dim)) * (grid.upper - grid.lower) + grid.lower
     half = RNG.uniform(0.05, 0.5, (500, dim)) * grid.spacing
-    nodes, S, G = shape.evaluate(x, grid.lower, grid.spacing, grid.cells, half)
+    nodes, S, G = reference_shape.evaluate(shape_name, x, grid.lower, grid.spacing, grid.cells, half)
     node_index, S_k, G_k = shape.footprint(x, grid, half)
     assert np.array_equal(node_index, grid.local_node_index(nodes))
     assert relative(S_k, S) < 1e-14 and relative(G_k, G) < 1e-14
 
 
 def test_compiled_transfers_equal_numpy_sums():
-    from pimpm.transfer import grid_to_particle, gradient_at_particles, particle_to_grid, scatter
+    from pimpm.transfer import grid_to_particle, particle_to_grid
     n, nn, n_nodes, dim = 300, 9, 40, 2
     node_index = RNG.integers(0, n_nodes, (n, nn))
     S, G = RNG.random((n, nn)), RNG.standard_normal((n, nn, dim))
@@ -298,11 +303,8 @@ def test_compiled_transfers_equal_numpy_sums():
     np.add.at(expected, node_index.ravel(), (S[:, :, None] * q[:, None, :]).reshape(-1, 3))
     assert relative(particle_to_grid(node_index, S, q, n_nodes), expected) < 1e-13
     assert relative(particle_to_grid(node_index, S, q[:, 0], n_nodes), expected[:, 0]) < 1e-13
-    assert relative(scatter(node_index, S[:, :, None] * q[:, None, :], n_nodes), expected) < 1e-13
     assert relative(grid_to_particle(node_index, S, nodal),
                     np.einsum("pk,pkc->pc", S, nodal[node_index])) < 1e-13
-    assert relative(gradient_at_particles(node_index, G, nodal),
-                    np.einsum("pka,pkb->pab", nodal[node_index], G)) < 1e-13
 
 
 def test_compiled_take_equals_numpy_indexing():

@@ -49,7 +49,10 @@ def test_a_failure_on_one_rank_of_one_is_a_traceback_and_status_1(tmp_path, opti
     assert "RuntimeError: injected failure" in proc.stderr
 
 
-def test_a_bad_injection_plan_is_refused():
+def test_a_bad_injection_plan_is_refused(monkeypatch):
     from pimpm import faults
+    monkeypatch.setenv("PIMPM_INJECT_FAILURE", "somewhere:1:2")
     with pytest.raises(ValueError, match="expected WHERE:RANK:STEP"):
-        faults._parse("somewhere:1:2")
+        faults.parse_injection("PIMPM_INJECT_FAILURE", "WHERE", faults.POINTS)
+    monkeypatch.setenv("PIMPM_INJECT_FAILURE", "output:1:2")
+    assert faults.parse_injection("PIMPM_INJECT_FAILURE", "WHERE", faults.POINTS) == ("output", 1, 2)

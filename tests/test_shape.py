@@ -1,16 +1,40 @@
 """Shape functions: partition of unity, linear completeness and gradients
-consistent with the weights (finite differences), in 2D and 3D."""
+consistent with the weights (finite differences), in 2D and 3D, of the
+compiled footprint (the code that runs) and of its numpy reference."""
 import numpy as np
 import pytest
 
-from pimpm.shape import make_shape
+from reference import shape as reference
+
+IMPLEMENTATIONS = {"compiled": reference.compiled_evaluate, "reference": reference.evaluate}
 
 
+class Shape:
+    """The shape functions ``name`` through one implementation, with the
+    interface the tests use."""
+
+    def __init__(self, name, implementation="compiled"):
+        self.name = name
+        self.function = IMPLEMENTATIONS[implementation]
+
+    def evaluate(self, x, lower, spacing, cells, half_size=None):
+        return self.function(self.name, x, lower, spacing, cells, half_size)
+
+    @staticmethod
+    def weights_1d(xi, cells):
+        return reference.bspline_weights_1d(xi, cells)
+
+
+def make_shape(name, dim, implementation="compiled"):
+    return Shape(name, implementation)
+
+
+@pytest.mark.parametrize("implementation", list(IMPLEMENTATIONS))
 @pytest.mark.parametrize("name", ["linear", "gimp", "bspline"])
 @pytest.mark.parametrize("dim", [2, 3])
-def test_partition_of_unity_and_gradient_consistency(name, dim):
+def test_partition_of_unity_and_gradient_consistency(name, dim, implementation):
     rng = np.random.default_rng(3)
-    shape = make_shape(name, dim)
+    shape = make_shape(name, dim, implementation)
     cells = np.array([7, 5, 4][:dim])
     spacing = np.array([0.5, 0.25, 1.0][:dim])
     lower = np.array([-1.0, 2.0, 0.5][:dim])
@@ -58,14 +82,15 @@ def test_gimp_is_smooth_across_cell_boundaries():
         assert abs(s0 - s1) < 1e-8 and np.allclose(g0, g1, atol=1e-8)
 
 
+@pytest.mark.parametrize("implementation", list(IMPLEMENTATIONS))
 @pytest.mark.parametrize("dim", [2, 3])
-def test_bspline_boundary_modification_up_to_the_faces(dim):
+def test_bspline_boundary_modification_up_to_the_faces(dim, implementation):
     """Within half a cell of a grid face the folded B-splines still give
     partition of unity, reproduce linear fields, stay non-negative, and
     interpolate at the face itself (N = 1 at a face node, so constraining
     a symmetry plane constrains exactly the face nodes)."""
     rng = np.random.default_rng(5)
-    shape = make_shape("bspline", dim)
+    shape = make_shape("bspline", dim, implementation)
     cells = np.array([6, 4, 3][:dim])
     spacing = np.array([0.5, 0.25, 1.0][:dim])
     lower = np.array([-1.0, 2.0, 0.5][:dim])

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..functions import ONE, lookup
-from ..transfer import scatter
+from ..transfer import particle_to_grid
 
 
 @dataclass
@@ -35,8 +35,8 @@ class RigidBody:
         counts = np.zeros((grid.n_local_nodes, grid.dim))
         if len(positions):
             local, S, _ = shape.footprint(positions, grid, half_size)
-            touch = (S > 0.0).astype(float)
-            node_counts = scatter(local, touch, grid.n_local_nodes)
+            # how many of the body's particles touch each node (weight > 0)
+            node_counts = particle_to_grid(local, (S > 0.0).astype(float), np.ones(len(S)), grid.n_local_nodes)
             for axis in self.axes:
                 counts[:, axis] = node_counts
         return grid.sum_to_owned(counts) > 0.0

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..materials import MODELS, REQUIRED, elastic_moduli
 from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _fail,
-    _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _positive, _string)
+    _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _ordered_bounds, _positive, _string)
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
     DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
@@ -133,14 +133,7 @@ def _validate_geometry(value, path, dim, base_dir=None):
     if gtype in FILE_GEOMETRIES:
         return _validate_file_geometry(sec, gtype, path, dim, base_dir)
     if gtype in ("box", "cylinder"):
-        lower = _float_vector(sec.required("lower", f"a list of {dim} numbers"),
-                              sec.sub("lower"), dim)
-        upper = _float_vector(sec.required("upper", f"a list of {dim} numbers"),
-                              sec.sub("upper"), dim)
-        for i in range(dim):
-            if not upper[i] > lower[i]:
-                _fail(f"{sec.sub('upper')}[{i}]", upper[i],
-                      f"a number > {sec.sub('lower')}[{i}] = {_fmt(lower[i])}")
+        lower, upper = _ordered_bounds(sec, dim)
         if gtype == "box":
             return {"type": "box", "lower": lower, "upper": upper}
         # cylinder (3D): the part of the box within radius of the axis line through center

@@ -183,5 +183,16 @@ class _Section:
         return self.data[key]
 
 
+def _ordered_bounds(sec, dim):
+    """``lower`` and ``upper`` of section ``sec``: lists of ``dim`` numbers
+    with upper > lower on every axis."""
+    lower = _float_vector(sec.required("lower", f"a list of {dim} numbers"), sec.sub("lower"), dim)
+    upper = _float_vector(sec.required("upper", f"a list of {dim} numbers"), sec.sub("upper"), dim)
+    for i in range(dim):
+        if not upper[i] > lower[i]:
+            _fail(f"{sec.sub('upper')}[{i}]", upper[i], f"a number > {sec.sub('lower')}[{i}] = {_fmt(lower[i])}")
+    return lower, upper
+
+
 def _optional_mapping(value):
     return {} if value is _MISSING else value

@@ -1,7 +1,7 @@
 """Validation of the ``loads`` section: forces applied to the particles of
 deformable bodies, each scaled by a function of time (the runtime objects
 are :mod:`pimpm.loads`)."""
-from .checks import (_MISSING, _Section, _choices, _enum, _fail, _float_vector, _fmt, _join,
+from .checks import (_MISSING, _Section, _choices, _enum, _fail, _float_vector, _fmt, _join, _ordered_bounds,
                      _string)
 from .functions import _function_ref
 from .schema import AXES
@@ -54,14 +54,7 @@ def _validate_loads(value, path, dim, bodies, functions, grid):
                 region = {"lower": list(grid["lower"]), "upper": list(grid["upper"])}
             else:
                 rsec = _Section(region, sec.sub("region"), ("lower", "upper"))
-                lower = _float_vector(rsec.required("lower", f"a list of {dim} numbers"),
-                                      rsec.sub("lower"), dim)
-                upper = _float_vector(rsec.required("upper", f"a list of {dim} numbers"),
-                                      rsec.sub("upper"), dim)
-                for d in range(dim):
-                    if not upper[d] > lower[d]:
-                        _fail(f"{rsec.sub('upper')}[{d}]", upper[d],
-                              f"a number > {rsec.sub('lower')}[{d}] = {_fmt(lower[d])}")
+                lower, upper = _ordered_bounds(rsec, dim)
                 region = {"lower": lower, "upper": upper}
             load["region"] = region
         elif kind == "point":

@@ -3,6 +3,7 @@ each choice accepts (the swappable pieces' registries give theirs)."""
 from ..integrators import INTEGRATORS as _INTEGRATOR_REGISTRY
 from ..kinematics import KINEMATICS as _KINEMATICS_REGISTRY
 from ..materials import MODELS
+from ..presets import PRESETS
 from ..shape import SHAPES
 
 
@@ -44,6 +45,6 @@ TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "gravity_function", "dt_
     dict.fromkeys(k for cls in _INTEGRATOR_REGISTRY.values() for k in cls.parameters))
 SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc")
 CONVERGENCE_KEYS = ("test", "displacement_tolerance", "energy_tolerance")
-SOLVER_PRESETS = ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free")
+SOLVER_PRESETS = tuple(PRESETS)
 CONVERGENCE_TESTS = ("petsc", "guilkey_weiss")
 OUTPUT_KEYS = ("directory", "every", "checkpoint_every")

@@ -4,7 +4,6 @@ derivative R enters the tangent as K R."""
 import numpy as np
 from petsc4py import PETSc
 
-from .. import assembly
 from ..transfer import grid_to_particle, particle_to_grid
 
 
@@ -43,7 +42,7 @@ def assemble_projection(state, R, diag, row_offset, dim):
     ``R``; ``diag`` is a work vector. Collective."""
     R.zeroEntries()
     if len(state.particle_mass):
-        blocks = assembly.projection_blocks(state.particle_mass, state.S, state.group_order,
+        blocks = projection_blocks(state.particle_mass, state.S, state.group_order,
                                             state.group_starts, dim)
         nodes = state.group_nodes.astype(PETSc.IntType)
         R.setValuesBlockedLocalRCV(nodes, nodes, blocks.reshape(len(nodes), -1),
@@ -63,3 +62,48 @@ def projection_diagonal(state, grid):
         particle_to_grid(state.node_index, state.S**2, state.particle_mass, grid.n_local_nodes))
     keep = state.own_value_dofs()
     return np.where(keep, 1.0, r_diag / np.where(keep, 1.0, state.mass))
+
+
+def group_by_node_set(node_index, n_nodes):
+    """Group particles that touch the same list of nodes (one element matrix
+    per group): ``order`` sorts particles by group, ``starts`` marks the
+    first of each group in that order. Groups are ordered by their first and
+    last node, then by the whole list: the first and last node alone do not
+    identify the list where a stencil is clipped at the grid boundary (an
+    axis one cell wide with GIMP or B-splines: nodes (0, 0, 1) and (0, 1, 1)).
+    Within a group, particles keep their order."""
+    n, nn = node_index.shape
+    if n == 0:
+        return np.zeros(0, int), np.zeros(0, int)
+    key = node_index[:, 0] * n_nodes + node_index[:, -1]
+    order = np.argsort(key, kind="stable")
+    rows = node_index[order]
+    same_key = key[order][1:] == key[order][:-1]
+    differs = np.any(rows[1:] != rows[:-1], axis=1)
+    if np.any(same_key & differs):
+        # clipped stencils share a key: sort by the whole list too (np.lexsort
+        # sorts by its last key first, and is stable)
+        order = np.lexsort(tuple(node_index[:, j] for j in range(nn - 1, -1, -1)) + (key,))
+        rows = node_index[order]
+        differs = np.any(rows[1:] != rows[:-1], axis=1)
+    starts = np.flatnonzero(np.r_[True, differs])
+    return order, starts
+
+
+def sum_by_group(values, starts):
+    """Sum consecutive rows of ``values`` that share a group (particles sorted
+    by cell; ``starts`` = first row of each group)."""
+    if len(starts) == 0:
+        return values[:0]
+    return np.add.reduceat(values, starts, axis=0)
+
+
+def projection_blocks(particle_mass, S, order, starts, dim):
+    """Blocks of S^T m S (the particle-mass-weighted "consistent mass" of the
+    momentum formulation's projection, Sulsky & Kaul 3.2.1), summed over the
+    particles of each footprint group, as (n_groups, nn*dim, nn*dim) with
+    rows i*dim + a and columns j*dim + b (identity in a, b)."""
+    scalar = particle_mass[:, None, None] * S[:, :, None] * S[:, None, :]     # (n, nn, nn)
+    scalar = sum_by_group(scalar[order], starts)
+    return np.einsum("gij,ab->giajb", scalar, np.eye(dim)).reshape(
+        len(scalar), S.shape[1] * dim, S.shape[1] * dim)

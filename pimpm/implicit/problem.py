@@ -19,7 +19,6 @@ from .. import coo, faults, interrupt
 from ..kernels import particle_step
 from ..materials.model import youngs_modulus
 from ..stages import log_stage
-from ..transfer import scatter
 from .momentum import assemble_projection, project_displacement
 from .shell import TangentShell
 
@@ -51,12 +50,11 @@ class ParticleEvaluation:
     the internal force on the ghosted-local nodes, what the tangent needs
     (the in-plane stiffness density times the current volume, and the
     axisymmetric hoop couplings), and how many particles the increment
-    inverts on this rank. The tangent reuses it when SNES asks for the
-    Jacobian at the iterate whose residual it has just evaluated (G&W steps
-    4-5 are done once per iterate). ``full_tangent``: also keep the full
-    spatial tangent c (the matrix-free product uses it)."""
+    inverts on this rank. The tangent (assembled, or the matrix-free
+    product) reuses it when SNES asks for the Jacobian at the iterate whose
+    residual it has just evaluated (G&W steps 4-5 are done once per iterate)."""
 
-    def __init__(self, state, n_nodes, dim, full_tangent=False):
+    def __init__(self, state, n_nodes, dim):
         n = len(state.F_n)
         self.u = None
         self.F_inc = np.empty((n, 3, 3))
@@ -67,7 +65,6 @@ class ParticleEvaluation:
         self.tangent = np.empty((n,) + (dim,) * 4)
         axisymmetric = state.kinematics.kernel_code == particle_step.AXISYMMETRIC
         self.hoop = np.empty((n if axisymmetric else 0, 2 * dim * dim + 1))
-        self.c = np.empty((n if full_tangent else 0, 3, 3, 3, 3))
         self.inverted = 0
         self.unconverged = 0          # plane stress: particles whose thickness solve failed
 
@@ -78,7 +75,7 @@ class ParticleEvaluation:
             st.kinematics.kernel_code, tuple(range(dim)), tuple(range(st.S.shape[1])), u_local,
             st.node_index, st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS,
             st.F_n, st.volume_n, mt.only_model, mt.models, mt.params, mt.material_of, st.history_packed, True, True,
-            self.F_inc, self.F, self.sigma, self.history, self.force, self.tangent, self.hoop, self.c)
+            self.F_inc, self.F, self.sigma, self.history, self.force, self.tangent, self.hoop)
         self.u = u_local.copy()
 
     def matches(self, u_local):
@@ -118,7 +115,6 @@ class StepProblem:
         self.diag = grid.da.createGlobalVec()
         self.row_offset = self.diag.getOwnershipRange()[0]
         self.K = self.projection = None
-        self.matrix_free = False         # the shell's product needs the full spatial tangent
         #: the tangent on the step's pattern is assembled through COO (pimpm.coo)
         self.coo = coo.available() and not momentum
         #: the step's tangent on the free dofs only (:meth:`create_free_jacobian`), or None
@@ -132,9 +128,8 @@ class StepProblem:
         self.thickness_failed = False
         self.residual_evaluations = 0
         evaluation = state.extra.get("evaluation")
-        if evaluation is None or (self.matrix_free and len(evaluation.c) != len(state.F_n)):
-            state.extra["evaluation"] = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim,
-                                                           full_tangent=self.matrix_free)
+        if evaluation is None:
+            state.extra["evaluation"] = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim)
 
     @property
     def assembles_on_pattern(self):
@@ -152,7 +147,6 @@ class StepProblem:
         pattern, fixed once here from the DMDA's full stencil."""
         da = self.grid.da
         if matrix_free:
-            self.matrix_free = True
             X = da.createGlobalVec()
             sizes = (X.getLocalSize(), X.getSize())
             X.destroy()
@@ -209,13 +203,6 @@ class StepProblem:
         return log_stage(self.stages.get(name))
 
     # ----------------------------------------------------------------- physics
-    def internal_force(self, sigma, F_inc):
-        """Fint on owned dofs (summed over ranks) for stresses and increments;
-        ``F_inc`` None: the stresses at t on the reset grid. Collective."""
-        st = self.state
-        pairs = st.kinematics.internal_force_pairs(sigma, F_inc, st.G, st.S, st.volume_n, st.radius)
-        return self.grid.sum_to_owned(scatter(st.node_index, pairs, self.grid.n_local_nodes))
-
     def kinematic_displacement(self, u_owned, u_local):
         """The ghosted-local displacement that deforms the particles: u itself
         (velocity formulation) or its projection R u (momentum formulation)."""
@@ -294,8 +281,7 @@ class StepProblem:
             if evaluation is not None:
                 project = (lambda v: project_displacement(st, grid, v, grid.owned_to_local(v))) \
                     if self.momentum else None
-                P.getPythonContext().update(st, evaluation.sigma, evaluation.c, evaluation.F_inc,
-                                            self.residual_scale, project)
+                P.getPythonContext().update(st, evaluation, self.residual_scale, project)
             P.assemble()
             if J != P:
                 J.assemble()

@@ -23,8 +23,9 @@ def particle_fields(sim):
         "J": np.concatenate([J, np.ones(nr)]),
         "body": np.concatenate([p["body"], r["body"]]),
         "id": np.concatenate([p["id"], r["id"]]),
+        # the history fields the materials' models declare as output (plastic strain, work)
         **{name: np.concatenate([p["h_" + name], np.zeros((nr,) + p["h_" + name].shape[1:])])
-           for name in ("eq_plastic_strain", "plastic_work") if "h_" + name in p},
+           for name in dict.fromkeys(n for m in sim.materials for n in m.model.output)},
     }
 
 

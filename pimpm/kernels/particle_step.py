@@ -13,14 +13,18 @@ section 3.3, steps 3 and 5), one loop over the particles each:
   block by block into the values of the tangent's block CSR
   (:mod:`.pattern`).
 
-The numpy references are :mod:`pimpm.assembly` and :mod:`pimpm.kinematics`.
+* :func:`tangent_product`, :func:`tangent_diagonal`: the same stiffness
+  applied to a vector, and its diagonal, without forming it (the
+  matrix-free tangent, :mod:`pimpm.implicit.shell`).
+
+The numpy references are in tests/reference/kinematics.py.
 """
 import numpy as np
 
 from .jit import jit
 from .material_point import WORKSPACE, model_point, solve_thickness
 from .pattern import stencil_slot
-from .small import det3, inv2, inv3, matmul3
+from .small import copy3, det3, inv2, inv3, matmul3
 
 #: kinematics codes (pimpm.kinematics classes carry theirs)
 GENERAL, PLANE_STRESS, AXISYMMETRIC = 0, 1, 2
@@ -38,7 +42,7 @@ def _in_plane_inverse(F, dim, out):
 @jit
 def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G, radius, F_n, volume_n,
                        only_model, models, params, material_of, h_in, want_tangent, want_force,
-                       F_inc, F, sigma, h_out, force, tangent, hoop, c):
+                       F_inc, F, sigma, h_out, force, tangent, hoop):
     """Kinematics, material points and (``want_force``) the internal force
     for the ghosted-local nodal displacement ``u`` (n_nodes, dim); footprint
     entries that are not ``active`` (no weight, no gradient) are skipped.
@@ -48,8 +52,7 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     dim, dim, dim, dim) = v (c_acbd + delta_ab sigma_cd), the material +
     geometric stiffness density times the current volume v, in the plane;
     ``hoop`` (n, 2 dim^2 + 1) in axisymmetry: v c_22bd, v c_ac22 and
-    v (c_2222 + sigma_22) (:func:`_hoop_terms`); ``c`` (n, 3, 3, 3, 3), the full spatial tangent,
-    only if it has rows (the matrix-free product wants it). Returns the
+    v (c_2222 + sigma_22) (:func:`_hoop_terms`). Returns the
     number of particles whose increment inverts them (det F_inc <= 0, full
     3x3) and the number whose plane-stress thickness solve did not converge. ``axes`` = tuple(range(dim)) and ``footprint`` = tuple(range(nodes
     per particle)): a tuple's length is known when compiling, so each
@@ -65,11 +68,9 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     w = np.empty((WORKSPACE, 3, 3))
     D = np.empty((3, 3, 3, 3))
     c_scratch = np.empty((3, 3, 3, 3))
-    keep_c = c.shape[0] > 0
     # plane strain uses only the in-plane entries of the material tangent;
-    # the hoop terms (axisymmetric), the thickness solve (plane stress) and
-    # the matrix-free product (keep_c) use them all
-    in_plane = dim == 2 and kinematics == GENERAL and not keep_c
+    # the hoop terms (axisymmetric) and the thickness solve (plane stress) use them all
+    in_plane = dim == 2 and kinematics == GENERAL
     grad = np.empty((3, 3))
     Finv = np.zeros((3, 3))
     P = np.empty((3, 3))
@@ -110,9 +111,7 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
         increment_inverts = not (det3(Fi) > 0.0)
         if increment_inverts:
             inverted += 1
-        for a in range(3):
-            for b in range(3):
-                Fn[a, b] = F_n[p, a, b]
+        copy3(F_n, p, Fn)
         matmul3(Fi, Fn, Fp)
         m = material_of[p]
         for k in range(n_history):
@@ -135,8 +134,6 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
                 sigma[p, a, b] = sp[a, b]
         for k in range(n_history):
             h_out[p, k] = ho[k]
-        if keep_c and want_tangent:     # c_scratch holds this particle's tangent only then
-            c[p] = c_scratch
         J_inc = det3(Fi)                 # full 3x3: thickness (plane stress), hoop (axisymmetric)
         if want_tangent:
             v = volume_n[p] * J_inc      # current volume
@@ -158,15 +155,7 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
                     s += sp[a, cc] * Finv[b, cc]
                 P[a, b] = J_inc * s
         V = volume_n[p]
-        for k in range(nn):
-            if not active[p, k]:
-                continue
-            node = node_index[p, k]
-            for a in range(dim):
-                s = 0.0
-                for b in range(dim):
-                    s += G[p, k, b] * P[a, b]
-                force[node, a] += V * s
+        _scatter_stress(force, node_index, active, p, G, p, P, V, nn, dim)
         if kinematics == AXISYMMETRIC:              # hoop force V P_thth S_ip / r
             h = V * (J_inc * sp[2, 2] / Fi[2, 2]) / radius[p]
             for k in range(nn):
@@ -184,6 +173,43 @@ def _hoop_terms(c, sigma, v, dim, out):
             out[dim * b + d] = v * c[2, 2, b, d]
             out[dim * dim + dim * b + d] = v * c[b, d, 2, 2]
     out[2 * dim * dim] = v * (c[2, 2, 2, 2] + sigma[2, 2])
+
+
+@jit
+def _scatter_stress(out, node_index, active, p, gradients, q, M, scale, nn, dim):
+    """out[node_k, a] += scale sum_b gradients[q, k, b] M[a, b] over particle
+    p's active footprint entries k: a stress-like M (P = J_inc sigma F_inc^-T,
+    or a stress rate) against its shape-function gradients."""
+    for k in range(nn):
+        if not active[p, k]:
+            continue
+        node = node_index[p, k]
+        for a in range(dim):
+            s = 0.0
+            for b in range(dim):
+                s += gradients[q, k, b] * M[a, b]
+            out[node, a] += scale * s
+
+
+@jit
+def _gradient_scratch(nn):
+    """Scratch for :func:`_current_gradients`: F_inc, its in-plane inverse
+    (zero outside the plane) and g for a footprint of ``nn`` nodes."""
+    return np.empty((3, 3)), np.zeros((3, 3)), np.empty((1, nn, 3))
+
+
+@jit
+def _current_gradients(F_inc, G, p, Fi, Finv, g, nn, dim):
+    """Particle p's increment in ``Fi``, its in-plane inverse in ``Finv``
+    and its current gradients g = F_inc^-T G: g_kd = G_kc Finv_cd."""
+    copy3(F_inc, p, Fi)
+    _in_plane_inverse(Fi, dim, Finv)
+    for k in range(nn):
+        for d in range(dim):
+            s = 0.0
+            for cc in range(dim):
+                s += G[p, k, cc] * Finv[cc, d]
+            g[0, k, d] = s
 
 
 @jit
@@ -213,7 +239,7 @@ def tangent_blocks(kinematics, axes, footprint, symmetric, node_index, active, S
     n = S.shape[0]
     values[:] = 0.0
     Finv = np.zeros((3, 3))
-    g = np.empty((nn, 3))
+    g = np.empty((1, nn, 3))
     B = np.empty((3, 3, 3))
     group_nodes = np.full(nn, -1, dtype=np.int64)   # the footprint of the group being summed
     K = np.zeros((nn, dim, nn, dim))                # its element matrix (entries k, m of the footprint)
@@ -230,16 +256,7 @@ def tangent_blocks(kinematics, axes, footprint, symmetric, node_index, active, S
             _add_group(symmetric, group_nodes, K, used, node_ijk, width, indptr, slot_position, values, dim)
             for k in range(nn):
                 group_nodes[k] = node_index[p, k]
-        for a in range(3):
-            for b in range(3):
-                Fi[a, b] = F_inc[p, a, b]
-        _in_plane_inverse(Fi, dim, Finv)
-        for k in range(nn):                     # g = F_inc^-T G: g_kd = G_kc Finv_cd (0 if inactive)
-            for d in range(dim):
-                s = 0.0
-                for cc in range(dim):
-                    s += G[p, k, cc] * Finv[cc, d]
-                g[k, d] = s
+        _current_gradients(F_inc, G, p, Fi, Finv, g, nn, dim)   # g = F_inc^-T G (0 if inactive)
         r = radius[p] * Fi[2, 2] if axisymmetric else 1.0
         for k in range(nn):
             if not active[p, k]:
@@ -249,7 +266,7 @@ def tangent_blocks(kinematics, axes, footprint, symmetric, node_index, active, S
                     for d in range(dim):
                         s = 0.0
                         for cc in range(dim):
-                            s += g[k, cc] * tangent[p, a, cc, b, d]
+                            s += g[0, k, cc] * tangent[p, a, cc, b, d]
                         B[a, b, d] = s
             for m in range(k if symmetric else 0, nn):
                 if not active[p, m]:
@@ -259,7 +276,7 @@ def tangent_blocks(kinematics, axes, footprint, symmetric, node_index, active, S
                     for b in range(dim):
                         s = 0.0
                         for d in range(dim):
-                            s += B[a, b, d] * g[m, d]
+                            s += B[a, b, d] * g[0, m, d]
                         K[k, a, m, b] += s
                 if axisymmetric:
                     wk = S[p, k] / r
@@ -267,12 +284,12 @@ def tangent_blocks(kinematics, axes, footprint, symmetric, node_index, active, S
                     for b in range(dim):        # hoop row x in-plane column: w_k v c_22bd g_md
                         s = 0.0
                         for d in range(dim):
-                            s += hoop[p, dim * b + d] * g[m, d]
+                            s += hoop[p, dim * b + d] * g[0, m, d]
                         K[k, 0, m, b] += wk * s
                     for a in range(dim):        # in-plane row x hoop column: g_kc v c_ac22 w_m
                         s = 0.0
                         for cc in range(dim):
-                            s += g[k, cc] * hoop[p, dim * dim + dim * a + cc]
+                            s += g[0, k, cc] * hoop[p, dim * dim + dim * a + cc]
                         K[k, a, m, 0] += s * wm
                     K[k, 0, m, 0] += wk * hoop[p, 2 * dim * dim] * wm
     _add_group(symmetric, group_nodes, K, used, node_ijk, width, indptr, slot_position, values, dim)
@@ -308,3 +325,99 @@ def _add_group(symmetric, nodes, K, used, node_ijk, width, indptr, slot_position
             for a in range(dim):
                 for b in range(dim):
                     K[k, a, m, b] = 0.0
+
+
+@jit
+def tangent_product(kinematics, axes, footprint, node_index, active, S, G, radius, F_inc, tangent, hoop, x, out):
+    """out = K x (out (n_nodes, dim), zeroed here) with K the particles'
+    material + geometric stiffness of :func:`tangent_blocks`, without
+    forming it (Sulsky & Kaul 2.4.4's matrix-free product, analytic):
+
+        (K x)_ka = sum_p g_kc v a_acbd H_bd,   H = sum_m x_m (x) g_m,  g = F_inc^-T G
+
+    plus the axisymmetric hoop couplings (``hoop`` of
+    :func:`evaluate_particles`; w = S / r with r the current radius):
+    (K x)_k0 += w_k (v c_22bd H_bd + v (c_2222 + sigma_22) e),
+    (K x)_ka += g_kc v c_ac22 e, e = sum_m w_m x_m0. ``x`` is ghosted-local
+    (n_nodes, dim); inactive footprint entries are skipped."""
+    dim = len(axes)
+    nn = len(footprint)
+    out[:] = 0.0
+    Fi, Finv, g = _gradient_scratch(nn)
+    H = np.empty((3, 3))
+    rate = np.empty((3, 3))
+    axisymmetric = kinematics == AXISYMMETRIC
+    for p in range(S.shape[0]):
+        _current_gradients(F_inc, G, p, Fi, Finv, g, nn, dim)
+        for b in range(dim):
+            for d in range(dim):
+                s = 0.0
+                for m in range(nn):
+                    if active[p, m]:
+                        s += x[node_index[p, m], b] * g[0, m, d]
+                H[b, d] = s
+        for a in range(dim):                     # rate_ac = v a_acbd H_bd
+            for cc in range(dim):
+                s = 0.0
+                for b in range(dim):
+                    for d in range(dim):
+                        s += tangent[p, a, cc, b, d] * H[b, d]
+                rate[a, cc] = s
+        e = 0.0
+        hoop_rate = 0.0
+        r = 1.0
+        if axisymmetric:
+            r = radius[p] * Fi[2, 2]
+            for m in range(nn):
+                if active[p, m]:
+                    e += S[p, m] / r * x[node_index[p, m], 0]
+            for b in range(dim):
+                for d in range(dim):
+                    hoop_rate += hoop[p, dim * b + d] * H[b, d]
+            hoop_rate += hoop[p, 2 * dim * dim] * e
+        if axisymmetric:                         # the in-plane rows' hoop column: v c_ac22 e
+            for a in range(dim):
+                for cc in range(dim):
+                    rate[a, cc] += hoop[p, dim * dim + dim * a + cc] * e
+        _scatter_stress(out, node_index, active, p, g, 0, rate, 1.0, nn, dim)
+        if axisymmetric:
+            for k in range(nn):
+                if active[p, k]:
+                    out[node_index[p, k], 0] += S[p, k] / r * hoop_rate
+
+
+@jit
+def _diagonal_block(tangent, p, a, g, k, dim):
+    """sum_cd g_kc tangent_acad g_kd: the diagonal entry (k a, k a) of particle p's stiffness."""
+    s = 0.0
+    for cc in range(dim):
+        for d in range(dim):
+            s += g[0, k, cc] * tangent[p, a, cc, a, d] * g[0, k, d]
+    return s
+
+
+@jit
+def tangent_diagonal(kinematics, axes, footprint, node_index, active, S, G, radius, F_inc, tangent, hoop, out):
+    """The diagonal of the particles' stiffness K of :func:`tangent_product`
+    (out (n_nodes, dim), zeroed here): K_(ka)(ka) = sum_p g_kc v a_acad g_kd
+    plus the hoop terms of the radial component."""
+    dim = len(axes)
+    nn = len(footprint)
+    out[:] = 0.0
+    Fi, Finv, g = _gradient_scratch(nn)
+    axisymmetric = kinematics == AXISYMMETRIC
+    for p in range(S.shape[0]):
+        _current_gradients(F_inc, G, p, Fi, Finv, g, nn, dim)
+        r = radius[p] * Fi[2, 2] if axisymmetric else 1.0
+        for k in range(nn):
+            if not active[p, k]:
+                continue
+            node = node_index[p, k]
+            for a in range(dim):
+                out[node, a] += _diagonal_block(tangent, p, a, g, k, dim)
+            if axisymmetric:
+                w = S[p, k] / r
+                s = 0.0
+                for d in range(dim):
+                    s += hoop[p, d] * g[0, k, d] + g[0, k, d] * hoop[p, dim * dim + d]
+                out[node, 0] += w * s + w * w * hoop[p, 2 * dim * dim]

@@ -43,6 +43,15 @@ def inv2(A, out):
 
 
 @jit
+def copy3(stack, p, out):
+    """out = stack[p] for a (n, 3, 3) stack, without making a view (a view per
+    particle costs numba a reference-count pair)."""
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = stack[p, a, b]
+
+
+@jit
 def matmul3(A, B, out):
     """out = A B (out must not alias A or B)."""
     for i in range(3):
@@ -55,13 +64,10 @@ def matmul3(A, B, out):
 
 @jit
 def matmul3_bt(A, B, out):
-    """out = A B^T."""
+    """out = A B^T: the products of A's rows with B's rows."""
     for i in range(3):
         for j in range(3):
-            s = 0.0
-            for k in range(3):
-                s += A[i, k] * B[j, k]
-            out[i, j] = s
+            out[i, j] = A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]
 
 
 @jit

@@ -12,7 +12,7 @@ import numpy as np
 from .jit import jit
 from .material_point import model_energy
 from .particle_step import AXISYMMETRIC
-from .small import det3
+from .small import copy3, det3
 
 
 @jit
@@ -26,9 +26,7 @@ def current_internal_force(kinematics, axes, footprint, node_index, S, G, radius
     force[:] = 0.0
     Fp = np.empty((3, 3))
     for p in range(S.shape[0]):
-        for a in range(3):
-            for b in range(3):
-                Fp[a, b] = F[p, a, b]
+        copy3(F, p, Fp)
         v = volume0[p] * det3(Fp)
         for k in footprint:
             node = node_index[p, k]
@@ -51,9 +49,7 @@ def strain_energy(models, params, material_of, F, h, volume0):
     total = 0.0
     Fp = np.empty((3, 3))
     for p in range(F.shape[0]):
-        for a in range(3):
-            for b in range(3):
-                Fp[a, b] = F[p, a, b]
+        copy3(F, p, Fp)
         m = material_of[p]
         total += volume0[p] * model_energy(models[m], params[m], Fp, h[p])
     return total
@@ -76,9 +72,7 @@ def explicit_p2g(kinematics, axes, footprint, node_index, S, G, radius, mass, ve
         m = mass[p]
         for a in axes:
             mv[a] = m * velocity[p, a]
-        for a in range(3):
-            for b in range(3):
-                Fp[a, b] = F[p, a, b]
+        copy3(F, p, Fp)
         v = volume0[p] * det3(Fp)
         for k in footprint:
             node = node_index[p, k]
@@ -133,8 +127,6 @@ def point_energies(models, params, material_of, F, h, out):
     """out[p] = W_p, each particle's stored energy per reference volume."""
     Fp = np.empty((3, 3))
     for p in range(F.shape[0]):
-        for a in range(3):
-            for b in range(3):
-                Fp[a, b] = F[p, a, b]
+        copy3(F, p, Fp)
         m = material_of[p]
         out[p] = model_energy(models[m], params[m], Fp, h[p])

@@ -6,7 +6,7 @@ gathers of nodal quantities to the particles (eq. 8-10).
 A footprint lists ``nodes_per_axis ** dim`` nodes per particle, x fastest
 (the order of :class:`pimpm.shape.TensorProductShape`'s offsets); nodes
 outside the grid are clipped onto it with zero weight and gradient. The
-numpy versions in :mod:`pimpm.shape` are the references
+numpy versions in tests/reference/shape.py are the references
 (tests/test_kernels.py).
 """
 import math
@@ -21,7 +21,7 @@ LINEAR, GIMP, BSPLINE = 0, 1, 2
 @jit
 def _gimp_1d(r, l):
     """uGIMP weight and slope per unit r (cell units), particle half-length
-    l <= 1/2 (as pimpm.shape._gimp_1d)."""
+    l <= 1/2 (as tests/reference/shape.py)."""
     a = abs(r)
     s = 1.0 if r > 0 else (-1.0 if r < 0 else 0.0)
     if a < l:
@@ -43,6 +43,16 @@ def _bspline_1d(r):
         s = 1.0 if r > 0 else (-1.0 if r < 0 else 0.0)
         return 0.5 * (1.5 - a) ** 2, -s * (1.5 - a)
     return 0.0, 0.0
+
+
+@jit
+def _fold(values, d, phantom, inner):
+    """B-spline boundary modification along axis d: the phantom node's
+    function goes to the face node (slot 1) and its inner neighbour by
+    linear extrapolation, N_face += 2 N_phantom, N_inner -= N_phantom."""
+    values[d, 1] += 2.0 * values[d, phantom]
+    values[d, inner] -= values[d, phantom]
+    values[d, phantom] = 0.0
 
 
 @jit
@@ -87,19 +97,11 @@ def footprint(kind, axes, x, lower, spacing, cells, half_size, ghost_start, ghos
                     # boundary modification: fold the phantom node outside a face
                     # onto the face node and its neighbour (pimpm.shape)
                     if base < 0:
-                        w[d, 1] += 2.0 * w[d, 0]
-                        w[d, 2] -= w[d, 0]
-                        w[d, 0] = 0.0
-                        dw[d, 1] += 2.0 * dw[d, 0]
-                        dw[d, 2] -= dw[d, 0]
-                        dw[d, 0] = 0.0
+                        _fold(w, d, 0, 2)
+                        _fold(dw, d, 0, 2)
                     if base + 2 > cells[d]:
-                        w[d, 1] += 2.0 * w[d, 2]
-                        w[d, 0] -= w[d, 2]
-                        w[d, 2] = 0.0
-                        dw[d, 1] += 2.0 * dw[d, 2]
-                        dw[d, 0] -= dw[d, 2]
-                        dw[d, 2] = 0.0
+                        _fold(w, d, 2, 0)
+                        _fold(dw, d, 2, 0)
                 for k in range(3):
                     node[d, k] = min(max(node[d, k], 0), cells[d])
             for k in range(npa):
@@ -141,19 +143,6 @@ def scatter(node_index, weights, values, n_nodes, out):
 
 
 @jit
-def scatter_pairs(node_index, pairs, out):
-    """out[i] = sum of the per-pair values ``pairs`` (n, nn, m) at node i."""
-    out[:] = 0.0
-    n, nn = node_index.shape
-    m = pairs.shape[2]
-    for p in range(n):
-        for k in range(nn):
-            i = node_index[p, k]
-            for c in range(m):
-                out[i, c] += pairs[p, k, c]
-
-
-@jit
 def gather(node_index, weights, nodal, out):
     """out[p] = sum_k weights[p, k] nodal[node_index[p, k]] (``nodal``
     (n_nodes, m), ``out`` (n, m)): MPM intro eq. 8-10."""
@@ -168,18 +157,13 @@ def gather(node_index, weights, nodal, out):
 
 
 @jit
-def gradient(node_index, G, nodal, out):
-    """out[p] = sum_k nodal[node_k] (x) G[p, k] (n, m, dim): MPM intro eq. 5."""
-    n, nn = node_index.shape
-    m = nodal.shape[1]
-    dim = G.shape[2]
-    for p in range(n):
-        for a in range(m):
-            for b in range(dim):
-                s = 0.0
-                for k in range(nn):
-                    s += nodal[node_index[p, k], a] * G[p, k, b]
-                out[p, a, b] = s
+def _scaled_norm2(G, p, k, spacing, dim):
+    """|h G_pk|^2 (h the cell size per axis)."""
+    s = 0.0
+    for d in range(dim):
+        hg = spacing[d] * G[p, k, d]
+        s += hg * hg
+    return s
 
 
 @jit
@@ -191,11 +175,7 @@ def gradient_weight(node_index, G, spacing, mass, out):
     dim = G.shape[2]
     for p in range(n):
         for k in range(nn):
-            s = 0.0
-            for d in range(dim):
-                hg = spacing[d] * G[p, k, d]
-                s += hg * hg
-            out[node_index[p, k]] += mass[p] * s
+            out[node_index[p, k]] += mass[p] * _scaled_norm2(G, p, k, spacing, dim)
 
 
 @jit

@@ -74,3 +74,13 @@ def strain_increment(F, h_in, fn_offset, w):
     F_inc = w[2]
     matmul3(F, Fn_inv, F_inc)
     return F_inc
+
+
+@jit
+def trace_right_cauchy_green(F):
+    """tr C = tr(F^T F) = sum of the squares of F's entries."""
+    s = 0.0
+    for i in range(3):
+        for j in range(3):
+            s += F[i, j] * F[i, j]
+    return s

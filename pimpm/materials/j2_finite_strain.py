@@ -18,18 +18,22 @@ import numpy as np
 from ..kernels.jit import jit
 from ..kernels.small import det3, matmul3, matmul3_bt, trace3
 from .common import SQ23, identity_dyad, strain_increment, sym_identity, yield_stress
-from .model import PLASTICITY, Model, history_offsets
+from .model import PLASTICITY, Model, history_offsets, parameter_offsets
 
 HISTORY = {"deformation_gradient": (3, 3), "elastic_left_cauchy_green": (3, 3),
            "eq_plastic_strain": (), "plastic_work": ()}
 _H = history_offsets(HISTORY)
 DEFORMATION_GRADIENT, BBAR = _H["deformation_gradient"], _H["elastic_left_cauchy_green"]
 EQ_PLASTIC_STRAIN, PLASTIC_WORK = _H["eq_plastic_strain"], _H["plastic_work"]
+_P = parameter_offsets(PLASTICITY)
+YIELD_STRESS, HARDENING, SOFTENING_STRAIN, SOFTENING = (_P["yield_stress"], _P["hardening_modulus"],
+                                                         _P["softening_strain"], _P["softening_modulus"])
 
 
 @jit
 def point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
-    mu, kappa, tau0, h1, alpha_l, h2 = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5]
+    mu, kappa = prm[0], prm[1]
+    tau0, h1, alpha_l, h2 = prm[YIELD_STRESS], prm[HARDENING], prm[SOFTENING_STRAIN], prm[SOFTENING]
     J = det3(F)
     f = strain_increment(F, h_in, DEFORMATION_GRADIENT, w)     # relative deformation F F_n^-1 in w[2]
     fbar = w[3]
@@ -131,4 +135,5 @@ def energy(prm, F, h):
 
 
 MODEL = Model("j2_finite_strain", point, energy, parameters=PLASTICITY, history=HISTORY,
-              symmetric_tangent=False, identity_history=("deformation_gradient", "elastic_left_cauchy_green"))
+              symmetric_tangent=False, identity_history=("deformation_gradient", "elastic_left_cauchy_green"),
+              output=("eq_plastic_strain", "plastic_work"))

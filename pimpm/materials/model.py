@@ -4,7 +4,8 @@ material (:class:`Material`): a model with the values of one input's
 ``materials`` entry. Everything else is generated from the declarations:
 the model codes the kernels dispatch on (the position in
 :data:`pimpm.materials.MODELS`), the packed parameters (``[mu, kappa]`` then
-the declared parameters in order, any number of them) and the history
+the declared parameters in order, any number of them, then the model's
+constants) with their offsets (:func:`parameter_offsets`), and the history
 offsets (:func:`history_offsets`).
 
 A model's compiled functions (``@jit`` from :mod:`pimpm.kernels.jit`):
@@ -42,11 +43,17 @@ REQUIRED = object()
 Parameter = namedtuple("Parameter", "default positive absent", defaults=(0.0,))
 
 #: yield stress and the bilinear hardening / softening of Sulsky & Kaul eq. 2.1.19
-#: (packed as prm[2:6] by the J2 models)
+#: (the J2 models' parameters)
 PLASTICITY = {"yield_stress": Parameter(REQUIRED, True),
               "hardening_modulus": Parameter(0.0, False),
               "softening_strain": Parameter(None, True, np.inf),
               "softening_modulus": Parameter(0.0, False)}
+
+
+def parameter_offsets(parameters, constants=()):
+    """Each parameter's place in a material's packed parameters: [mu, kappa]
+    (0, 1), then the declared parameters, then the constants: name -> offset."""
+    return {name: 2 + i for i, name in enumerate(list(parameters) + list(constants))}
 
 
 def history_offsets(history):
@@ -64,14 +71,19 @@ class Model:
     by the registry (:data:`pimpm.materials.MODELS`)."""
 
     def __init__(self, name, point, energy, parameters=None, history=None, symmetric_tangent=True,
-                 identity_history=()):
+                 identity_history=(), constants=None, output=()):
         self.name = name
         self.point = point
         self.energy = energy
         #: parameters beyond the elastic constants and the density: name -> Parameter
         self.parameters = dict(parameters or {})
+        #: values packed after the parameters that the input does not set: name ->
+        #: number (two models sharing a point function share a packing this way)
+        self.constants = dict(constants or {})
         #: history carried by each particle: name -> per-particle shape
         self.history = dict(history or {})
+        #: history fields written with the particles at every output step
+        self.output = tuple(output)
         #: history fields that start at the identity tensor (the others at zero)
         self.identity_history = tuple(identity_history)
         #: is the consistent tangent symmetric? (measured by tests/mpi/jacobian_check.py)
@@ -156,8 +168,10 @@ class Material:
 
     def packed_parameters(self):
         """The parameters as the compiled kernels take them: [mu, kappa, then
-        the model's parameters in declaration order]."""
-        return np.array([self.shear_modulus, self.bulk_modulus] + list(self.values.values()))
+        the model's parameters in declaration order, then its constants]
+        (:func:`parameter_offsets`)."""
+        return np.array([self.shear_modulus, self.bulk_modulus] + list(self.values.values())
+                        + list(self.model.constants.values()))
 
     @property
     def lame_lambda(self):

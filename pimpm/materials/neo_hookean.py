@@ -12,7 +12,7 @@ import math
 
 from ..kernels.jit import jit
 from ..kernels.small import det3
-from .common import fill_nan, isotropic_tangent
+from .common import fill_nan, isotropic_tangent, trace_right_cauchy_green
 from .model import Model
 
 
@@ -70,10 +70,7 @@ def energy(prm, F, h):
     J = det3(F)
     if not (J > 0.0):
         return math.nan
-    trC = 0.0
-    for i in range(3):
-        for j in range(3):
-            trC += F[i, j] * F[i, j]
+    trC = trace_right_cauchy_green(F)
     lnJ = math.log(J)
     return 0.5 * prm[0] * (J ** (-2.0 / 3.0) * trC - 3.0) + 0.5 * prm[1] * lnJ * lnJ
 

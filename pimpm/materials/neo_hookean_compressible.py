@@ -10,7 +10,7 @@ import math
 
 from ..kernels.jit import jit
 from ..kernels.small import det3, matmul3_bt
-from .common import fill_nan, isotropic_tangent
+from .common import fill_nan, isotropic_tangent, trace_right_cauchy_green
 from .model import Model
 
 
@@ -43,10 +43,7 @@ def energy(prm, F, h):
     J = det3(F)
     if not (J > 0.0):
         return math.nan
-    trC = 0.0
-    for i in range(3):
-        for j in range(3):
-            trC += F[i, j] * F[i, j]
+    trC = trace_right_cauchy_green(F)
     return 0.25 * lam * (J * J - 1.0) - (0.5 * lam + mu) * math.log(J) + 0.5 * mu * (trC - 3.0)
 
 

@@ -24,13 +24,21 @@ import math
 from ..kernels.jit import jit
 from ..kernels.small import trace3
 from .common import SQ32, identity_dyad, strain_increment, sym_identity, yield_stress
-from .model import PLASTICITY, Model, history_offsets
+from .model import PLASTICITY, Model, history_offsets, parameter_offsets
 
 ELASTIC_HISTORY = {"strain": (3, 3), "deformation_gradient": (3, 3)}
 PLASTIC_HISTORY = dict(ELASTIC_HISTORY, plastic_strain=(3, 3), eq_plastic_strain=(), plastic_work=())
 _H = history_offsets(PLASTIC_HISTORY)
 STRAIN, DEFORMATION_GRADIENT, PLASTIC_STRAIN = _H["strain"], _H["deformation_gradient"], _H["plastic_strain"]
 EQ_PLASTIC_STRAIN, PLASTIC_WORK = _H["eq_plastic_strain"], _H["plastic_work"]
+#: both models pack [mu, kappa, the plasticity parameters, plastic?]: linear
+#: elasticity as constants (no yield), von Mises plasticity from the input
+_P = parameter_offsets(PLASTICITY, ("plastic",))
+YIELD_STRESS, HARDENING, SOFTENING_STRAIN, SOFTENING = (_P["yield_stress"], _P["hardening_modulus"],
+                                                         _P["softening_strain"], _P["softening_modulus"])
+PLASTIC = _P["plastic"]
+ELASTIC_CONSTANTS = {"yield_stress": math.inf, "hardening_modulus": 0.0, "softening_strain": math.inf,
+                     "softening_modulus": 0.0, "plastic": 0.0}
 
 
 @jit
@@ -51,12 +59,12 @@ def _small_strain_tangent(sigma, D, F_inc, c):
 
 
 @jit
-def small_strain_point(F, prm, h_in, h_out, plastic_model, sigma, c, want_c, w, D):
-    """Hooke's law (``plastic_model`` False) or radial return in the
-    accumulated small strain (module docstring)."""
-    mu, kappa, tau0, h1, alpha_l, h2 = prm[0], prm[1], 0.0, 0.0, math.inf, 0.0
-    if plastic_model:
-        tau0, h1, alpha_l, h2 = prm[2], prm[3], prm[4], prm[5]
+def point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
+    """Hooke's law (linear_elastic) or radial return (j2_small_strain) in
+    the accumulated small strain (module docstring)."""
+    mu, kappa = prm[0], prm[1]
+    tau0, h1, alpha_l, h2 = prm[YIELD_STRESS], prm[HARDENING], prm[SOFTENING_STRAIN], prm[SOFTENING]
+    plastic_model = prm[PLASTIC] > 0.0
     F_inc = strain_increment(F, h_in, DEFORMATION_GRADIENT, w)
     eps = w[3]
     for i in range(3):
@@ -123,45 +131,27 @@ def small_strain_point(F, prm, h_in, h_out, plastic_model, sigma, c, want_c, w, 
 
 
 @jit
-def small_strain_energy(prm, h, plastic_model):
+def energy(prm, F, h):
     """1/2 eps_e : C : eps_e with eps_e = strain - plastic strain (history)."""
     mu, kappa = prm[0], prm[1]
+    plastic_model = prm[PLASTIC] > 0.0
     tr = 0.0
     for i in range(3):
         tr += h[STRAIN + 4 * i] - (h[PLASTIC_STRAIN + 4 * i] if plastic_model else 0.0)
-    w = 0.0
+    e2 = 0.0
     for i in range(3):
         for j in range(3):
             e = h[STRAIN + 3 * i + j] - (h[PLASTIC_STRAIN + 3 * i + j] if plastic_model else 0.0)
             s = (kappa * tr if i == j else 0.0) + 2.0 * mu * (e - (tr / 3.0 if i == j else 0.0))
-            w += s * e
-    return 0.5 * w
-
-
-@jit
-def elastic_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
-    small_strain_point(F, prm, h_in, h_out, False, sigma, c, want_c, w, D)
-
-
-@jit
-def elastic_energy(prm, F, h):
-    return small_strain_energy(prm, h, False)
-
-
-@jit
-def plastic_point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
-    small_strain_point(F, prm, h_in, h_out, True, sigma, c, want_c, w, D)
-
-
-@jit
-def plastic_energy(prm, F, h):
-    return small_strain_energy(prm, h, True)
+            e2 += s * e
+    return 0.5 * e2
 
 
 # measured 5% asymmetric for j2_small_strain (tests/mpi/jacobian_check.py);
 # linear_elastic shares its kinematics and is not measured: LU for both
-LINEAR_ELASTIC = Model("linear_elastic", elastic_point, elastic_energy, history=ELASTIC_HISTORY,
+LINEAR_ELASTIC = Model("linear_elastic", point, energy, history=ELASTIC_HISTORY, constants=ELASTIC_CONSTANTS,
                        symmetric_tangent=False, identity_history=("deformation_gradient",))
-J2_SMALL_STRAIN = Model("j2_small_strain", plastic_point, plastic_energy, parameters=PLASTICITY,
+J2_SMALL_STRAIN = Model("j2_small_strain", point, energy, parameters=PLASTICITY, constants={"plastic": 1.0},
                         history=PLASTIC_HISTORY, symmetric_tangent=False,
-                        identity_history=("deformation_gradient",))
+                        identity_history=("deformation_gradient",),
+                        output=("eq_plastic_strain", "plastic_work"))

@@ -87,8 +87,7 @@ class ParticleStress:
             sim.kinematics.kernel_code, self.axes, self.footprint, dt * v_local, self.node_index,
             self.active, self.S, self.G, self.radius, p["F"], p["volume0"], table.only_model, table.models,
             table.params, table.material_of, packed, False, False, F_inc, F, sigma, h_out,
-            np.empty((0, dim)), np.empty((0,) + (dim,) * 4), np.empty((0, 2 * dim * dim + 1)),
-            np.empty((0, 3, 3, 3, 3)))
+            np.empty((0, dim)), np.empty((0,) + (dim,) * 4), np.empty((0, 2 * dim * dim + 1)))
         inverted, unconverged = sim.comm.allreduce(np.array([inverted, unconverged]))
         if inverted or unconverged:
             p.fields.update(saved)

@@ -7,6 +7,7 @@ check both against finite differences of the energies. Tangent convention:
 import numpy as np
 
 from pimpm.materials import MODELS, youngs_modulus
+from pimpm.materials import Material as PimpmMaterial
 
 
 class Material:
@@ -51,8 +52,12 @@ class Material:
         return MODELS[self.name].code
 
     def packed_parameters(self):
-        """The parameters as the compiled kernels take them: [mu, kappa]."""
-        return np.array([self.shear_modulus, self.bulk_modulus])
+        """The parameters as the compiled kernels take them (pimpm's packing
+        of the same values)."""
+        model = MODELS[self.name]
+        values = {key: getattr(self, key) for key in model.parameters}
+        return PimpmMaterial(model, self.shear_modulus, self.bulk_modulus, self.density,
+                             **values).packed_parameters()
 
     def stress(self, F):
         """Cauchy stress, shape (n, 3, 3)."""
@@ -101,7 +106,3 @@ class PlasticParameters:
         self.hardening_modulus = float(hardening_modulus)
         self.softening_strain = float(softening_strain)
         self.softening_modulus = float(softening_modulus)
-
-    def packed_parameters(self):
-        return np.array([self.shear_modulus, self.bulk_modulus, self.yield_stress,
-                         self.hardening_modulus, self.softening_strain, self.softening_modulus])
