@@ -8,20 +8,36 @@ from .kernels import stress as stress_kernels
 from .materials.table import MaterialTable
 
 
-def kinetic_energy(particles, comm):
+def _kinetic(particles):
     p = particles
-    return float(comm.allreduce(0.5 * np.sum(p["mass"] * np.sum(p["v"] ** 2, axis=1))))
+    return 0.5 * float(np.sum(p["mass"] * np.sum(p["v"] ** 2, axis=1)))
+
+
+def _stored(particles, material_groups):
+    p = particles
+    if not len(p):
+        return 0.0
+    table = MaterialTable(material_groups, len(p))
+    history = {k: p["h_" + k] for m, _ in material_groups for k in m.history}
+    return stress_kernels.strain_energy(table.models, table.params, table.material_of, p["F"],
+                                        table.pack(history), p["volume0"])
+
+
+def kinetic_energy(particles, comm):
+    """Kinetic energy of the particles. Collective."""
+    return float(comm.allreduce(_kinetic(particles)))
 
 
 def strain_energy(particles, material_groups, comm):
     """Stored energy of every material (per reference volume, times it),
     compiled (:func:`pimpm.kernels.stress.strain_energy`). Collective."""
-    p = particles
-    table = MaterialTable(material_groups, len(p))
-    history = {k: p["h_" + k] for m, _ in material_groups for k in m.history}
-    total = stress_kernels.strain_energy(table.models, table.params, table.material_of, p["F"],
-                                         table.pack(history), p["volume0"]) if len(p) else 0.0
-    return float(comm.allreduce(total))
+    return float(comm.allreduce(_stored(particles, material_groups)))
+
+
+def energies(particles, material_groups, comm):
+    """(kinetic, stored) energy in one reduction. Collective."""
+    kinetic, stored = comm.allreduce(np.array([_kinetic(particles), _stored(particles, material_groups)]))
+    return float(kinetic), float(stored)
 
 
 class WorkAccount:

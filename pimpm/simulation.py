@@ -451,8 +451,9 @@ class Simulation:
                     load_forces={load.name: load.resultant(self.time) for load in self.loads},
                     load_displacements={load.name: load_displacement(load, self.particles, self.comm)
                                         for load in self.loads})
+        kinetic, stored = energy.energies(self.particles, self.material_groups(), self.comm)
         info.update(forces=forces, external_work=self.work.total,
-                    kinetic_energy=self.kinetic_energy(), strain_energy=self.strain_energy(),
+                    kinetic_energy=kinetic, strain_energy=stored,
                     particle_imbalance=self.step_imbalance,
                     wall_time=wallclock.perf_counter() - t0)
         return info

@@ -9,6 +9,8 @@ Cases (each a whole run to its end time, output only at the start and the end):
 * ``billet-quarter``: the same billet at 0.25 cm cells (102,400 particles,
   GIMP, the platen moving half a cell per step: 80 steps);
   ``billet-quarter-linear``: the same with linear shape functions;
+* ``billet-explicit``: inputs/billet_explicit.yaml, the dynamic billet with
+  explicit MPM to t = 0.2 (2231 steps at the CFL step);
 * ``block-3d``: the 3D block of scripts/bench_solvers.py at 32 cells per axis
   (79,507 particles, 107,811 unknowns, 4 quasi-static steps) with the
   gmres-gamg preset (MUMPS factorizes it in minutes; see PERFORMANCE.md).
@@ -48,7 +50,7 @@ from bench_solvers import block3d, parse_log  # noqa: E402
 from pimpm.measures import bulge_from_fields, edge_particle_id  # noqa: E402
 
 STAGES = ("P2G", "Solve", "Constitutive update", "Assembly", "G2P", "Migration", "Output")
-CASES = ("billet-linear", "billet-gimp", "billet-quarter", "billet-quarter-linear", "block-3d")
+CASES = ("billet-linear", "billet-gimp", "billet-quarter", "billet-quarter-linear", "block-3d", "billet-explicit")
 
 
 def worktree(commit):
@@ -63,6 +65,11 @@ def case_input(tree, case):
     """The input of ``case`` as ``tree`` ships it, and extra command-line options."""
     if case == "block-3d":
         return block3d(2, 4, "linear"), ["-pimpm_preset", "gmres-gamg"]
+    if case == "billet-explicit":              # the whole explicit run, t = 0.2
+        with open(os.path.join(tree, "inputs", "billet_explicit.yaml")) as f:
+            config = yaml.safe_load(f)
+        config["output"] = {"directory": "out", "every": 100000}
+        return config, []
     with open(os.path.join(tree, "inputs", "billet.yaml")) as f:
         config = yaml.safe_load(f)
     config["grid"]["shape_functions"] = "linear" if case.endswith("-linear") else "gimp"
@@ -167,11 +174,14 @@ def main():
     ap.add_argument("--imbalance-ranks", type=int, nargs="*", default=[3],
                     help="extra rank counts run once (current tree) for billet-quarter's imbalance")
     ap.add_argument("--json", default=os.path.join(ROOT, "docs", "bench_parallel.json"))
+    ap.add_argument("--current", default=None,
+                    help="a commit to measure instead of this working tree (from its own worktree)")
+    ap.add_argument("--no-start-up", action="store_true", help="skip the cold/warm start-up runs")
     ap.add_argument("--current-options", default="",
                     help="command-line options for the current tree's runs only, e.g. "
                          "--current-options='-pimpm_weak_node_fraction 0' (a method the baseline lacks)")
     args = ap.parse_args()
-    trees = {"baseline": worktree(args.baseline), "current": ROOT}
+    trees = {"baseline": worktree(args.baseline), "current": worktree(args.current) if args.current else ROOT}
     rows = []
     for case in args.cases:
         names = ["baseline", "current"] if case in args.baseline_cases else ["current"]
@@ -193,10 +203,10 @@ def main():
         if case == "billet-quarter":
             for ranks in args.imbalance_ranks:
                 with tempfile.TemporaryDirectory() as workdir:
-                    result = run(ROOT, case, ranks, workdir)
+                    result = run(trees["current"], case, ranks, workdir)
                 rows.append({"case": case, "ranks": ranks, "current": median_row([result]), "once": True})
                 print(json.dumps(rows[-1]), flush=True)
-    startup = start_up(ROOT)
+    startup = {} if args.no_start_up else start_up(trees["current"])
     print(json.dumps({"start_up": startup}), flush=True)
 
     print(f"\n| case | ranks | baseline {args.baseline} (s) | current (s) | current / baseline "
@@ -219,7 +229,8 @@ def main():
         print(f"| {r['case']} | {r['ranks']}{' (once)' if r.get('once') else ''} | {base} | "
               f"{c['wall_s']:.1f} | {ratio} | {its} | {c['linear']:.0f} | {c['imbalance']:.2f} | "
               f"{shares} | {memory} | {force} |")
-    print(f"\nstart-up (one-step billet, 1 rank): cold {startup['cold_s']:.1f} s, warm {startup['warm_s']:.1f} s")
+    if startup:
+        print(f"\nstart-up (one-step billet, 1 rank): cold {startup['cold_s']:.1f} s, warm {startup['warm_s']:.1f} s")
     with open(args.json, "w") as f:
         json.dump({"baseline": args.baseline, "repeats": args.repeats,
                    "current_options": args.current_options, "rows": rows,

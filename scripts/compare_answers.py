@@ -7,7 +7,7 @@ wall time) and every particle and grid field of the last output step of
 the largest relative difference per case (``max |a - b| / max |b|`` per
 column or field, the largest of them) and writes JSON.
 
-    python scripts/compare_answers.py --baseline 89dbf38 [--ranks 1 2]
+    python scripts/compare_answers.py --baseline 89dbf38 [--current COMMIT] [--ranks 1 2]
         [--cases billet-gimp billet-linear ...] [--json docs/data/answers.json]
 
 A refactoring that must not change the answers shows 0 (bitwise) or
@@ -104,18 +104,21 @@ def compare_results(a, b):
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--baseline", required=True)
+    parser.add_argument("--current", default=None,
+                        help="a commit to compare instead of this working tree (run from its own worktree)")
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     parser.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "pimpm-compare"))
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
     base = worktree(args.baseline)
+    current = worktree(args.current) if args.current else ROOT
     results = {}
     print(f"{'case':18s} {'ranks':>5s} {'largest difference':>20s}  where")
     for case in args.cases:
         for ranks in args.ranks:
             outs = {}
-            for label, tree in (("current", ROOT), ("baseline", base)):
+            for label, tree in (("current", current), ("baseline", base)):
                 outs[label] = os.path.join(args.work, f"{case}-{ranks}-{label}")
                 run(tree, case, ranks, outs[label])
             diffs = compare_history(outs["current"], outs["baseline"])
@@ -124,9 +127,10 @@ def main():
             results[f"{case}/{ranks}"] = {"largest": diffs[worst], "where": worst, "all": diffs}
             print(f"{case:18s} {ranks:5d} {diffs[worst]:20.3e}  {worst}", flush=True)
     if args.json:
+        results = {"baseline": args.baseline, "current": args.current or "working tree", "cases": results}
         os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as f:
-            json.dump({"baseline": args.baseline, "cases": results}, f, indent=1, sort_keys=True)
+            json.dump(results, f, indent=1, sort_keys=True)
 
 
 if __name__ == "__main__":

@@ -10,10 +10,10 @@ def stable_time_step(particles, material_groups, grid, cfl, comm):
     dilatational wave speed of each particle's material. Collective."""
     h = float(np.min(grid.spacing))
     speed = 0.0
+    speed2 = np.sum(particles["v"] ** 2, axis=1)
     for material, index in material_groups:
         if len(index):
-            v = np.sqrt(np.max(np.sum(particles["v"][index] ** 2, axis=1)))
-            speed = max(speed, material.wave_speed() + v)
+            speed = max(speed, material.wave_speed() + np.sqrt(np.max(speed2[index])))
     speed = comm.allreduce(speed, op=MPI.MAX)
     return cfl * h / speed
 

@@ -73,6 +73,12 @@ def footprint(kind, axes, x, lower, spacing, cells, half_size, ghost_start, ghos
     stride[0] = 1
     for d in range(1, dim):
         stride[d] = stride[d - 1] * ghost_shape[d - 1]
+    offset = np.empty((nn, dim), dtype=np.int64)     # footprint entry k's node slot per axis, x fastest
+    for k in range(nn):
+        rest = k
+        for d in range(dim):
+            offset[k, d] = rest % npa
+            rest //= npa
     for p in range(n):
         for d in range(dim):
             xi = (x[p, d] - lower[d]) / spacing[d]
@@ -84,10 +90,11 @@ def footprint(kind, axes, x, lower, spacing, cells, half_size, ghost_start, ghos
                 dw[d, 0], dw[d, 1] = -1.0, 1.0
             else:
                 base = int(math.floor(xi + 0.5)) - 1
+                half = half_size[p, d] / spacing[d] if kind == GIMP else 0.0
                 for k in range(3):
                     node[d, k] = base + k
                     if kind == GIMP:
-                        w[d, k], dw[d, k] = _gimp_1d(xi - (base + k), half_size[p, d] / spacing[d])
+                        w[d, k], dw[d, k] = _gimp_1d(xi - (base + k), half)
                         if base + k < 0 or base + k > cells[d]:
                             w[d, k] = 0.0
                             dw[d, k] = 0.0
@@ -107,22 +114,18 @@ def footprint(kind, axes, x, lower, spacing, cells, half_size, ghost_start, ghos
             for k in range(npa):
                 dw[d, k] /= spacing[d]
         for k in range(nn):
-            rest = k
             index = 0
             weight = 1.0
             for d in range(dim):
-                o = rest % npa
-                rest //= npa
+                o = offset[k, d]
                 index += (node[d, o] - ghost_start[d]) * stride[d]
                 weight *= w[d, o]
             node_index[p, k] = index
             S[p, k] = weight
             for d in range(dim):
-                rest = k
                 g = 1.0
                 for e in range(dim):
-                    o = rest % npa
-                    rest //= npa
+                    o = offset[k, e]
                     g *= dw[e, o] if e == d else w[e, o]
                 G[p, k, d] = g
 
