@@ -36,6 +36,7 @@ from .seeding import overlapping_bodies, particles_per_body, seed_bodies
 from .shape import make_shape
 from .solver import DEFAULT_SOLVER_OPTIONS, NewtonSolver, diagnose_solver_options
 from .stages import log_stage, log_stages
+from .terms import BondedRigidBody, StepContext, make_terms
 from .steps import explicit as explicit_step
 from .transfer import grid_to_particle, particle_to_grid
 
@@ -67,8 +68,8 @@ class Simulation:
         self.gravity = np.asarray(config["time"].get("gravity", [0.0] * dim), dtype=float)
         self.gravity_function = lookup(self.functions, config["time"].get("gravity_function"))
         self.body_names = [b["name"] for b in config["bodies"]]
-        self.rigid_bodies = [bc.RigidBody.from_config(i, b, dim, self.functions)
-                             for i, b in enumerate(config["bodies"]) if b.get("rigid", False)]
+        #: what a step adds beside the particles: rigid bodies bonded to the material (pimpm.terms)
+        self.terms = make_terms(config, self.functions)
         self.loads = make_loads(config, self.functions, self.body_names)
         self.body_material = {i: self.material_names.index(b["material"])
                               for i, b in enumerate(config["bodies"]) if not b.get("rigid", False)}
@@ -154,7 +155,8 @@ class Simulation:
                                    momentum=config["time"]["formulation"] == "momentum",
                                    stages=self.stages,
                                    nonsymmetric_materials=[m.name for m in self.materials
-                                                           if not m.symmetric_tangent])
+                                                           if not m.symmetric_tangent],
+                                   terms=self.terms)
         try:
             self.solver = NewtonSolver(self.grid, self.problem, config["solver"],
                                        DEFAULT_SOLVER_OPTIONS, self.stages)
@@ -272,14 +274,27 @@ class Simulation:
         loads = particle_forces(self.loads, self.particles, time, self.dim)
         return force if loads is None else force + loads
 
+    @property
+    def rigid_bodies(self):
+        """The terms that are rigid bodies (each has a force column in the history)."""
+        return [t for t in self.terms if isinstance(t, BondedRigidBody)]
+
+    def begin_terms(self, dt):
+        """Set every nodal term up for the step of size dt from self.time. Collective."""
+        context = StepContext(self.grid, self.shape, self.rigid, self.time, dt)
+        for term in self.terms:
+            term.begin_step(context)
+
     def rigid_increments(self, dt):
-        """Each rigid body's displacement over the step from self.time (name
-        -> vector), and every rigid particle's (n_rigid, dim)."""
-        increments = {b.name: b.increment(self.time, dt) for b in self.rigid_bodies}
-        per_body = np.zeros((len(self.body_names), self.dim))
-        for b in self.rigid_bodies:
-            per_body[b.index] = increments[b.name]
-        return increments, per_body[self.rigid["body"]]
+        """Each moving term's displacement over the step (name -> vector), and
+        every rigid particle's (n_rigid, dim). After :meth:`begin_terms`."""
+        increments = {t.name: t.increment() for t in self.terms if t.increment() is not None}
+        moves = np.zeros((len(self.rigid), self.dim))
+        for term in self.terms:
+            displacement = term.particle_displacement(self.rigid)
+            if displacement is not None:
+                moves += displacement
+        return increments, moves
 
     # ----------------------------------------------------------------- one step
     def extend_weak_nodes(self, node_index, S, G, dt):
@@ -298,8 +313,10 @@ class Simulation:
         prescribed = np.zeros(grid.n_owned_nodes * self.dim, dtype=bool)
         faces, _ = bc.face_constraints(grid, self.boundary, self.time, dt, self.functions)
         prescribed[faces] = True
-        for body in self.rigid_bodies:
-            prescribed |= body.touched_dofs(grid, self.shape, self.rigid)
+        for term in self.terms:
+            dofs = term.prescribed()
+            if dofs is not None:
+                prescribed |= dofs[0]
         nodes = weak_nodes.WeakNodes(grid, support, prescribed, self.weak_fraction)
         self.weak_pairs = weak_nodes.extend(self.shape, grid, node_index, S, G, nodes)
 
@@ -307,15 +324,15 @@ class Simulation:
         """Steps 1-2: P2G and the Newton state on the reset grid."""
         p, grid = self.particles, self.grid
         node_index, S, G = self.footprint()
+        self.begin_terms(dt)
         self.extend_weak_nodes(node_index, S, G, dt)
         mass, velocity, acceleration, fext = self.nodal_state(node_index, S, self.time + dt)
         # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
         weight = np.empty(grid.n_local_nodes)
         transfer_kernels.gradient_weight(node_index, G, grid.spacing, p["mass"], weight)
         stiffness_weight = grid.sum_scalar_to_owned(weight)
-        cons = bc.build_constraints(grid, self.shape, self.rigid, self.rigid_bodies,
-                                    self.boundary, mass, dt, self.mass_floor, stiffness_weight,
-                                    self.time, self.functions)
+        cons = bc.build_constraints(grid, self.terms, self.boundary, mass, dt, self.mass_floor,
+                                    stiffness_weight, self.time, self.functions)
         groups = self.material_groups()
         materials = MaterialTable(groups, len(p))
         history = self.particle_history()

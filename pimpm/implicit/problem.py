@@ -93,8 +93,10 @@ class StepProblem:
     is not symmetric.
     """
 
-    def __init__(self, grid, residual_scale, momentum=False, stages=None, nonsymmetric_materials=()):
+    def __init__(self, grid, residual_scale, momentum=False, stages=None, nonsymmetric_materials=(), terms=()):
         self.grid = grid
+        #: the run's nodal terms (pimpm.terms): their forces and derivatives join the particles'
+        self.terms = list(terms)
         self.momentum = momentum
         #: why the assembled tangent is not symmetric ("" if it is)
         self.asymmetry = ("time.formulation: momentum (its tangent K R is not symmetric)" if momentum else
@@ -150,7 +152,7 @@ class StepProblem:
             X = da.createGlobalVec()
             sizes = (X.getLocalSize(), X.getSize())
             X.destroy()
-            J = PETSc.Mat().createPython((sizes, sizes), context=TangentShell(self.grid),
+            J = PETSc.Mat().createPython((sizes, sizes), context=TangentShell(self.grid, self.terms),
                                          comm=da.getComm())
             J.setUp()
             return J
@@ -252,7 +254,10 @@ class StepProblem:
         st.extra["kinematics"] = (evaluation.F_inc, evaluation.F, evaluation.sigma)   # for the particle update
         st.extra["history_packed"] = evaluation.history
         fint = self.grid.sum_to_owned(evaluation.force)
-        return st.integrator.balance(fint - st.external_force, st, u_owned)
+        force = st.integrator.balance(fint - st.external_force, st, u_owned)
+        for term in self.terms:
+            term.add_residual(u_owned, force)
+        return force
 
     # ----------------------------------------------------------------- SNES callbacks
     def form_residual(self, snes, X, R):
@@ -281,7 +286,8 @@ class StepProblem:
             if evaluation is not None:
                 project = (lambda v: project_displacement(st, grid, v, grid.owned_to_local(v))) \
                     if self.momentum else None
-                P.getPythonContext().update(st, evaluation, self.residual_scale, project)
+                P.getPythonContext().update(st, evaluation, self.residual_scale, project,
+                                            X.getArray(readonly=True).copy())
             P.assemble()
             if J != P:
                 J.assemble()
@@ -291,13 +297,16 @@ class StepProblem:
         with self._stage("Assembly"):
             if self.coo:
                 # every rank hands PETSc its values, none or not (collective)
-                values = self._jacobian_values(evaluation)
+                values = self._jacobian_values(evaluation, X.getArray(readonly=True))
                 coo.set_values(P, values)
                 if self.free_matrix is not None:
                     coo.set_values(self.free_matrix, values)
                 if J != P:
                     J.assemble()
                 return
+            if any(term.jacobian_blocks(X.getArray(readonly=True)) is not None for term in self.terms):
+                raise NotImplementedError("nodal terms with a derivative need the COO assembly "
+                                          "(velocity formulation)")
             K.zeroEntries()
             if evaluation is not None and len(st.F_n):
                 K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
@@ -317,7 +326,7 @@ class StepProblem:
             if J != P:
                 J.assemble()
 
-    def _jacobian_values(self, evaluation):
+    def _jacobian_values(self, evaluation, u_owned):
         """This rank's COO values of the whole Jacobian: the tangent blocks
         (zeros if a particle inverted), times the HHT factor, plus the mass
         term on owned diagonals, with the prescribed rows and columns
@@ -336,6 +345,12 @@ class StepProblem:
             values *= st.integrator.stiffness_factor
         if st.dynamic:
             values[owned_diagonal] += st.mass_coefficient * st.mass
+        for term in self.terms:
+            blocks = term.jacobian_blocks(u_owned)
+            if blocks is not None:
+                nodes, matrices = blocks
+                positions = st.pattern.block_positions(self.grid.owned_local_nodes[nodes], self.grid.dim)
+                np.add.at(values, positions.reshape(-1), matrices.reshape(-1))
         values[zero] = 0.0
         values[fixed_diagonal] = st.constraint_scale
         values *= 1.0 / self.residual_scale

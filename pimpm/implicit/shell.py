@@ -21,16 +21,25 @@ class TangentShell:
     eq. 2.4.18 which approximates it by a finite difference), from the
     stiffness densities the particle evaluation of the iterate computed."""
 
-    def __init__(self, grid):
+    def __init__(self, grid, terms=()):
         self.grid = grid
+        self.terms = list(terms)
         self.state = None
         self.evaluation = None  # pimpm.implicit.problem.ParticleEvaluation of the iterate
         self.scale = 1.0        # residual scale (dimensionless residual)
         self.project = None     # momentum formulation: x -> R x
+        self.u = None           # the iterate
 
-    def update(self, state, evaluation, scale, project=None):
-        """``project`` (momentum formulation): owned u -> (owned, local) R u."""
+    def _term_blocks(self):
+        """The nodal terms' derivative blocks at the iterate (pimpm.terms)."""
+        blocks = (term.jacobian_blocks(self.u) for term in self.terms)
+        return [b for b in blocks if b is not None]
+
+    def update(self, state, evaluation, scale, project=None, u_owned=None):
+        """``project`` (momentum formulation): owned u -> (owned, local) R u;
+        ``u_owned``: the iterate (the nodal terms' derivatives are taken there)."""
         self.project = project
+        self.u = u_owned
         self.state = state
         self.evaluation = evaluation
         self.scale = scale
@@ -55,6 +64,9 @@ class TangentShell:
             out *= st.integrator.stiffness_factor
         if st.dynamic:
             out += st.mass_coefficient * st.mass * xs_free
+        for nodes, blocks in self._term_blocks():
+            x_nodes = xs_free.reshape(-1, grid.dim)[nodes]
+            np.add.at(out.reshape(-1, grid.dim), nodes, np.einsum("kab,kb->ka", blocks, x_nodes))
         out[fixed] = st.constraint_scale * xs[fixed]
         y.getArray()[:] = out / self.scale
 
@@ -70,5 +82,7 @@ class TangentShell:
             out *= st.integrator.stiffness_factor
         if st.dynamic:
             out += st.mass_coefficient * st.mass
+        for nodes, blocks in self._term_blocks():
+            np.add.at(out.reshape(-1, grid.dim), nodes, np.diagonal(blocks, axis1=1, axis2=2))
         out[st.fixed] = st.constraint_scale
         d.getArray()[:] = out / self.scale

@@ -98,3 +98,26 @@ class TangentPattern:
         """The scalar row (ghosted-local dof) of each value: with
         ``scalar_indices``, the values' (row, column) pairs."""
         return np.repeat(np.arange(len(self.scalar_indptr) - 1), np.diff(self.scalar_indptr))
+
+    @cached_property
+    def _entry_keys(self):
+        """row * (number of columns) + column of every value: sorted (rows in
+        order, columns sorted within a row)."""
+        return self.scalar_rows.astype(np.int64) * self._columns + self.scalar_indices
+
+    @cached_property
+    def _columns(self):
+        return int(len(self.scalar_indptr) - 1)
+
+    def block_positions(self, local_nodes, dim):
+        """Positions in the scalar CSR values of the diagonal dim x dim block
+        of each ghosted-local node in ``local_nodes`` (k, dim, dim): every
+        owned node's diagonal block is in the pattern."""
+        nodes = np.asarray(local_nodes, dtype=np.int64)
+        rows = nodes[:, None, None] * dim + np.arange(dim)[None, :, None]
+        columns = nodes[:, None, None] * dim + np.arange(dim)[None, None, :]
+        positions = np.searchsorted(self._entry_keys, rows * self._columns + columns)
+        found = self._entry_keys[np.minimum(positions, len(self._entry_keys) - 1)]
+        if not np.all(found == rows * self._columns + columns):
+            raise RuntimeError("a node's diagonal block is not in the tangent's pattern")
+        return positions

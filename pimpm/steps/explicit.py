@@ -114,8 +114,8 @@ def advance(sim, dt):
         safe_mass = np.where(has_mass, mass, 1.0)
         velocity = np.where(has_mass, grid.sum_to_owned(nodal[:, 1:1 + dim]) / safe_mass, 0.0)
         fext = sim.nodal_external_force(node_index, S, mass, sim.time)      # eq. 4
-        cons = bc.build_constraints(grid, sim.shape, sim.rigid, sim.rigid_bodies,
-                                    sim.boundary, mass, dt, sim.mass_floor,
+        sim.begin_terms(dt)
+        cons = bc.build_constraints(grid, sim.terms, sim.boundary, mass, dt, sim.mass_floor,
                                     time=sim.time, functions=sim.functions)
         velocity = np.where(cons.fixed, cons.value / dt, velocity)
         update = sim.config["time"]["stress_update"]
@@ -126,7 +126,10 @@ def advance(sim, dt):
         else:
             fint = grid.sum_to_owned(nodal[:, 1 + dim:])
     with log_stage(sim.stages["G2P"]):
-        acceleration = np.where(has_mass, (fext - fint) / safe_mass, 0.0)        # eq. 1
+        net = fext - fint
+        for term in sim.terms:                                                   # pimpm.terms
+            term.add_explicit_force(velocity, dt, net)
+        acceleration = np.where(has_mass, net / safe_mass, 0.0)                  # eq. 1
         v_new = velocity + acceleration * dt                                     # eq. 7
         v_new = np.where(cons.fixed, cons.value / dt, v_new)
         acceleration = np.where(cons.fixed, 0.0, acceleration)

@@ -1,4 +1,4 @@
-"""``python -m pimpm.kernels``: compile every kernel once (2D and 3D, every
+"""``python -m pimpm.precompile``: compile every kernel once (2D and 3D, every
 material model, implicit and explicit steps), so that the first run after installing does not wait for
 numba; scripts/setup.sh runs it. Compiled code is cached on disk
 (:mod:`pimpm.kernels.jit`). (A problem whose materials mix several models
@@ -12,10 +12,10 @@ import petsc4py
 petsc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
-from ..config import validate  # noqa: E402
-from ..materials import MODELS, REQUIRED  # noqa: E402
-from ..simulation import Simulation  # noqa: E402
-from .jit import CACHE_DIRECTORY  # noqa: E402
+from .config import validate  # noqa: E402
+from .kernels.jit import CACHE_DIRECTORY  # noqa: E402
+from .materials import MODELS, REQUIRED  # noqa: E402
+from .simulation import Simulation  # noqa: E402
 
 
 #: one material of each registered model (the particle evaluation is compiled per model)
