@@ -414,7 +414,8 @@ class Simulation:
         forces = cons.reactions(self.problem.unconstrained_residual(u, u_local), self.comm, self.dim)
         # converged state (kinematics and stress of the residual just evaluated),
         # a_g(t+dt) from eq. 16, interpolate to particles
-        F_inc, F, sigma = state.extra["kinematics"]
+        converged = state.residual_evaluation
+        F, sigma = converged.F, converged.sigma
         v_new, a_new = state.grid_kinematics(u)
         a_local = grid.owned_to_local(a_new)
         u_p = grid_to_particle(state.node_index, state.S, u_local)
@@ -436,7 +437,7 @@ class Simulation:
         self.integrator.update_particles(p, u_p, a_p, dt)        # G&W step 7
         p["F"] = F
         p["stress"] = sigma
-        committed = state.committed_history(state.extra["history_packed"])
+        committed = state.committed_history(converged.history)
         for name, values in committed.items():                   # commit the history
             p["h_" + name] = values
         self.rigid["x"] = self.rigid["x"] + rigid_moves

@@ -29,4 +29,4 @@ echo "$PETSC_PY" > "$SITE/petsc4py-debian.pth"
 .venv/bin/python -m pip install -q --no-deps --no-build-isolation -e . >/dev/null
 .venv/bin/python -c "import petsc4py, mpi4py, h5py, numpy, numba, yaml, meshio; from petsc4py import PETSc; import pimpm; print('[setup] ok: PETSc', '.'.join(map(str, PETSc.Sys.getVersion())), 'numpy', numpy.__version__, 'numba', numba.__version__, 'h5py', h5py.__version__, 'mpi', h5py.get_config().mpi)"
 # compile the particle kernels once now (numba; cached on disk), not in the first run
-.venv/bin/python -m pimpm.kernels
+.venv/bin/python -m pimpm.precompile

@@ -31,6 +31,7 @@ def cycles(tmp_path_factory):
     return runs
 
 
+@pytest.mark.slow
 def test_the_platen_returns_exactly_and_the_billet_returns_to_its_shape(cycles):
     for r in cycles.values():
         assert abs(r["final_platen_position"]) < 1e-12       # the exact integral of the function

@@ -28,6 +28,7 @@ def test_small_load_matches_timoshenko_within_2_percent_and_converges(tmp_path):
         or abs(shipped["error"]) < 0.01
 
 
+@pytest.mark.slow
 def test_large_load_follows_the_reissner_beam_to_k_10(tmp_path):
     """4 cells per depth (the shipped input at half its resolution): within
     1.5% of Reissner's beam at every k (measured at most +0.9% vertical,

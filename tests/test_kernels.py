@@ -1,11 +1,12 @@
-"""The compiled kernels (pimpm.kernels) against their numpy references: the
-material points of every model (tests/reference/materials.py), the plane-stress
-thickness solve (tests/reference/update.py), the fused particle
-evaluation (kinematics, stress, internal force: pimpm.assembly and
-pimpm.kinematics) and the tangent blocks added into the pattern's values
-(pimpm.assembly.element_tangents and hoop_tangents). Agreement to round-off
-(1e-12 relative), in 2D, plane stress, axisymmetric and 3D, for linear,
-GIMP and B-spline shape functions, elastic and plastic."""
+"""The compiled kernels (pimpm.kernels, pimpm.materials) against their
+numpy references in tests/reference/: the material points of every model
+(materials.py), the plane-stress thickness solve (update.py), the fused
+particle evaluation (kinematics, stress, internal force: kinematics.py),
+the tangent blocks added into the pattern's values and the matrix-free
+product and diagonal (kinematics.element_tangents), and the shape functions
+(shape.py). Agreement to round-off (1e-12 relative; 1e-10 where a sum over
+many particles enters), in 2D, plane stress, axisymmetric and 3D, for
+linear, GIMP and B-spline shape functions, elastic and plastic."""
 import numpy as np
 import pytest
 
@@ -268,7 +269,7 @@ def test_a_particle_increment_that_inverts_is_counted():
     sim, st = small_simulation("plane_strain", "linear", "neo_hookean")
     sim.problem.begin(st)
     u = np.zeros((sim.grid.n_local_nodes, 2))
-    ev = st.extra["evaluation"]
+    ev = st.evaluation
     ev.evaluate(st, u, 2)
     assert ev.inverted == 0
     u[:, 0] = -3.0 * sim.grid.lower[0] - 3.0 * sim.grid.ghost_ijk[:, 0] * sim.grid.spacing[0]   # x -> -2x

@@ -129,9 +129,8 @@ class StepProblem:
         self.inverted = False
         self.thickness_failed = False
         self.residual_evaluations = 0
-        evaluation = state.extra.get("evaluation")
-        if evaluation is None:
-            state.extra["evaluation"] = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim)
+        if state.evaluation is None:
+            state.evaluation = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim)
 
     @property
     def assembles_on_pattern(self):
@@ -211,10 +210,10 @@ class StepProblem:
         if not self.momentum:
             return u_local
         st = self.state
-        if "projection_base" not in st.extra:
+        if st.projection_base is None:
             base = st.free_flight()
-            st.extra["projection_base"] = (base, self.grid.owned_to_local(base))
-        return project_displacement(st, self.grid, u_owned, u_local, st.extra["projection_base"])[1]
+            st.projection_base = (base, self.grid.owned_to_local(base))
+        return project_displacement(st, self.grid, u_owned, u_local, st.projection_base)[1]
 
     def evaluate(self, u_owned, u_local):
         """The particles at the iterate u (compiled, G&W steps 4-5 and the
@@ -222,7 +221,7 @@ class StepProblem:
         particle. Collective (so that no rank is left in a sum)."""
         st = self.state
         kinematic = self.kinematic_displacement(u_owned, u_local)
-        evaluation = st.extra["evaluation"]
+        evaluation = st.evaluation
         if not evaluation.matches(kinematic):
             with self._stage("Constitutive update"):
                 evaluation.evaluate(st, kinematic, self.grid.dim)
@@ -251,8 +250,7 @@ class StepProblem:
         evaluation = self.evaluate(u_owned, u_local)
         if evaluation is None:
             return None
-        st.extra["kinematics"] = (evaluation.F_inc, evaluation.F, evaluation.sigma)   # for the particle update
-        st.extra["history_packed"] = evaluation.history
+        st.residual_evaluation = evaluation          # for the particle update
         fint = self.grid.sum_to_owned(evaluation.force)
         force = st.integrator.balance(fint - st.external_force, st, u_owned)
         for term in self.terms:
@@ -363,7 +361,7 @@ class StepProblem:
         owned dofs' diagonals. Made at the step's first Jacobian (collective:
         the prescribed ghost dofs come from their owners)."""
         st, grid = self.state, self.grid
-        positions = st.extra.get("constraint_positions")
+        positions = st.constraint_positions
         if positions is None:
             pattern = st.pattern
             n_dofs = len(pattern.scalar_indptr) - 1
@@ -375,8 +373,7 @@ class StepProblem:
             diagonal[rows[on_diagonal]] = on_diagonal
             owned_dofs = (grid.owned_local_nodes[:, None] * grid.dim + np.arange(grid.dim)).reshape(-1)
             owned_diagonal = diagonal[owned_dofs]
-            positions = st.extra["constraint_positions"] = (zero, owned_diagonal,
-                                                            owned_diagonal[st.fixed])
+            positions = st.constraint_positions = (zero, owned_diagonal, owned_diagonal[st.fixed])
         return positions
 
     def _tangent_values(self, evaluation):
@@ -384,9 +381,9 @@ class StepProblem:
         step's pattern (scalar CSR order; zeros on a rank with no particles)."""
         st, grid = self.state, self.grid
         pattern = st.pattern
-        values = st.extra.get("tangent_values")
+        values = st.tangent_values
         if values is None:
-            values = st.extra["tangent_values"] = np.empty(len(pattern.scalar_indices))
+            values = st.tangent_values = np.empty(len(pattern.scalar_indices))
         if not len(st.F_n):
             values[:] = 0.0
             return values

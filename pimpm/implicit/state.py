@@ -30,7 +30,6 @@ class StepState:
     fixed: np.ndarray             # owned dofs: bool, prescribed
     fixed_value: np.ndarray       # owned dofs: prescribed incremental displacement
     constraint_scale: float       # diagonal used for prescribed rows
-    extra: dict = field(default_factory=dict)
 
     radius: np.ndarray = None     # axisymmetric: particle radius at t (None otherwise)
     history: dict = field(default_factory=dict)   # material history at t (per particle)
@@ -40,6 +39,13 @@ class StepState:
     group_order: np.ndarray = None    # momentum formulation: particles sorted by the node set they touch
     group_starts: np.ndarray = None   # first particle of each group in that order
     group_nodes: np.ndarray = None    # (n_groups, nn) ghosted-local nodes of each group
+
+    # made while Newton iterates on the step (pimpm.implicit.problem)
+    evaluation: object = None             # ParticleEvaluation: the particles at the last iterate
+    residual_evaluation: object = None    # the evaluation of the last residual (converged: the particle update's)
+    projection_base: tuple = None         # momentum formulation: (owned, local) free flight u0
+    constraint_positions: tuple = None    # COO positions of prescribed entries and diagonals
+    tangent_values: np.ndarray = None     # the tangent's COO values, reused every iterate
 
     @property
     def dynamic(self):
