@@ -138,6 +138,11 @@ def _run(args, comm, fail):
         config = load_config(args.input, overrides)
     except ConfigError as err:
         return fail(str(err))
+    from .options import with_command_line
+    try:                     # -pimpm_* aliases of input keys, checked as the keys are
+        config = with_command_line(config)
+    except ValueError as err:
+        return fail(str(err))
     from .analysis import run
     from .errors import SetupError, UsageError
     from .simulation import Simulation

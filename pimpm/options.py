@@ -18,3 +18,30 @@ def pimpm_option(name, default, kind=None):
         return getattr(db, getter)(name, default)
     except PETSc.Error:
         raise ValueError(f"-{name} {db.getString(name, '')}: expected {expected}") from None
+
+
+#: -pimpm_* options that are aliases of input keys: option -> (section, key, kind)
+INPUT_ALIASES = {"pimpm_weak_node_fraction": ("grid", "weak_node_fraction", float),
+                 "pimpm_free_dofs_only": ("solver", "free_dofs_only", bool),
+                 "pimpm_balance": ("parallel", "balance", bool),
+                 "pimpm_rebalance_threshold": ("parallel", "rebalance_threshold", float)}
+
+
+def with_command_line(config):
+    """The validated input with the command line's ``-pimpm_*`` aliases
+    (:data:`INPUT_ALIASES`) applied and checked as the input's keys are
+    (ValueError naming the option): the run's effective settings, which a
+    checkpoint records with the input."""
+    db = PETSc.Options()
+    out = dict(config)
+    for option, (section, key, kind) in INPUT_ALIASES.items():
+        if not db.hasName(option):
+            continue
+        value = pimpm_option(option, config[section][key], kind)
+        given = f"-{option} {db.getString(option, '')}"
+        if key == "weak_node_fraction" and not 0.0 <= value < 1.0:
+            raise ValueError(f"{given}: expected a number >= 0 and < 1 (0: no extension)")
+        if key == "rebalance_threshold" and not value >= 1.0:
+            raise ValueError(f"{given}: expected a number >= 1")
+        out[section] = dict(out[section], **{key: value})
+    return out

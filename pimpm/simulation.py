@@ -29,7 +29,7 @@ from .materials import tensors
 from .materials.table import MaterialTable
 from .loads import displacement as load_displacement
 from .loads import make_loads, particle_forces
-from .options import pimpm_option
+from .options import with_command_line
 from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
 from .particles import ParticleSet, migrate, sort_by_footprint
 from .seeding import overlapping_bodies, particles_per_body, seed_bodies
@@ -47,7 +47,10 @@ class Simulation:
     def __init__(self, config, comm=MPI.COMM_WORLD, checkpoint=None):
         """``checkpoint``: a :class:`pimpm.io.checkpoint.Checkpoint` to continue
         from instead of seeding the bodies (``--restart``)."""
-        self.config = config
+        try:                           # the command line's -pimpm_* aliases of input keys
+            self.config = config = with_command_line(config)
+        except ValueError as err:
+            raise SetupError(str(err)) from None
         self.comm = comm
         self.dim = dim = config["dim"]
         problem = resources.check(config, comm.size, 8 * np.dtype(PETSc.IntType).itemsize)
@@ -102,17 +105,12 @@ class Simulation:
         self.stages = log_stages()
         self.solver = None
         self.last_grid = None
-        try:
-            self.balance = pimpm_option("pimpm_balance", True)      # -pimpm_balance 0: PETSc's even split
-            #: repartition before a step when the particle imbalance exceeds this
-            self.rebalance_threshold = pimpm_option("pimpm_rebalance_threshold", 1.1)
-            #: nodes with less support than this fraction of a cell are extended out (implicit)
-            self.weak_fraction = weak_nodes.weak_node_fraction()
-            if not 0.0 <= self.weak_fraction < 1.0:
-                raise ValueError(f"-pimpm_weak_node_fraction {self.weak_fraction}: expected a number "
-                                 f">= 0 and < 1 (0: no extension)")
-        except ValueError as err:
-            raise SetupError(str(err)) from None
+        #: ownership ranges from the particles (false: PETSc's even split)
+        self.balance = config["parallel"]["balance"]
+        #: repartition before a step when the particle imbalance exceeds this
+        self.rebalance_threshold = config["parallel"]["rebalance_threshold"]
+        #: nodes with less support than this fraction of a cell are extended out (implicit)
+        self.weak_fraction = config["grid"]["weak_node_fraction"]
         if self.balance and not same_layout:
             self.balance_ranks()
         if self.integrator.explicit:

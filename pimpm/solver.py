@@ -207,7 +207,7 @@ class NewtonSolver:
         # a direct solver factorizes the free dofs only (pimpm.linear.FreeDofsKSP)
         self.free_dofs = None
         setting = lambda key: db.getString(key) if db.hasName(key) else options.get(key)  # noqa: E731
-        use_free_dofs = (pimpm_option("pimpm_free_dofs_only", True) and self.on_pattern and problem.coo
+        use_free_dofs = (solver_config.get("free_dofs_only", True) and self.on_pattern and problem.coo
                          and not use_fallback and not self._mf_operator(options)
                          and setting("ksp_type") == "preonly" and setting("pc_type") in ("lu", "cholesky"))
         if self.on_pattern:        # a placeholder until the first step's pattern is known

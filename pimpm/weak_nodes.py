@@ -26,7 +26,8 @@ part; there it was tried and made Newton worse on a violent plastic impact
 dynamics keeps the plain basis.
 
 A node is weak when its volume support sum_p S_Ip V_p is a positive
-fraction below ``-pimpm_weak_node_fraction`` (default 0.05; 0 turns the
+fraction below ``grid.weak_node_fraction`` (or ``-pimpm_weak_node_fraction``;
+default 0.05; 0 turns the
 extension off) of a cell's volume (in axisymmetry the in-plane area of the
 particles is used), and it is free (no grid face or rigid body prescribes
 any of its components). Only stencils of three nodes per axis (gimp,
@@ -37,15 +38,6 @@ finite-difference checks of tests/test_weak_nodes.py).
 import numpy as np
 
 from .kernels import transfer as transfer_kernels
-from .options import pimpm_option
-
-DEFAULT_FRACTION = 0.05
-
-
-def weak_node_fraction():
-    value = pimpm_option("pimpm_weak_node_fraction", DEFAULT_FRACTION)
-    return float(value)
-
 
 def support_fraction(grid, node_index, S, in_plane_volume):
     """Owned dof array: each node's sum_p S_Ip V_p over a cell's volume

@@ -77,7 +77,10 @@ def test_base_config_normalizes_with_defaults():
         "lower": [0.0, 0.0], "upper": [30.0, 25.0], "cells": [60, 50],
         "shape_functions": "gimp",
         "boundary": {"xmin": "roller", "xmax": "free", "ymin": "roller", "ymax": "free"},
+        "weak_node_fraction": 0.05,
     }
+    assert cfg["parallel"] == {"balance": True, "rebalance_threshold": 1.1}
+    assert cfg["solver"]["free_dofs_only"] is True
     assert cfg["kinematics"] == "plane_strain"
     assert cfg["materials"] == {"rubber": {"model": "neo_hookean", "density": 10.0,
                                            "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7}}
@@ -99,10 +102,10 @@ def test_base_config_normalizes_with_defaults():
     assert cfg["solver"] == {"preset": "mumps", "fallback": True,
                              "convergence": {"test": "petsc", "displacement_tolerance": 1e-6,
                                              "energy_tolerance": 1e-12},
-                             "petsc": {}}
+                             "petsc": {}, "free_dofs_only": True}
     assert cfg["output"] == {"directory": "pimpm_output", "every": 1, "checkpoint_every": 0}
     assert list(cfg) == ["title", "dim", "functions", "grid", "kinematics", "materials", "bodies",
-                         "loads", "time", "solver", "output"]
+                         "loads", "time", "solver", "parallel", "output"]
     assert cfg["functions"] == {} and cfg["loads"] == []
 
 
@@ -593,3 +596,41 @@ def test_error_in_the_file_still_names_the_file_with_set(tmp_path):
         load_config(path, ["time.dt=0.001"])
     assert str(info.value).startswith("bad.yaml:") or "bad.yaml:" in str(info.value)
     assert "--set" not in str(info.value)
+
+
+def test_method_switches_are_input_keys_and_the_command_line_aliases_are_checked():
+    """grid.weak_node_fraction, solver.free_dofs_only and parallel.{balance,
+    rebalance_threshold} are validated with the input; -pimpm_* spellings
+    override them and are checked the same way (pimpm.options)."""
+    import petsc4py
+    petsc4py.init([])
+    from petsc4py import PETSc
+    from pimpm.options import with_command_line
+    raw = base()
+    raw["grid"]["weak_node_fraction"] = 0.1
+    raw["parallel"] = {"balance": False, "rebalance_threshold": 1.5}
+    raw["solver"] = {"free_dofs_only": False}
+    cfg = validate(raw)
+    assert cfg["grid"]["weak_node_fraction"] == 0.1 and cfg["solver"]["free_dofs_only"] is False
+    assert cfg["parallel"] == {"balance": False, "rebalance_threshold": 1.5}
+    for key, value, message in (("grid.weak_node_fraction", 1.0, ">= 0 and < 1"),
+                                ("parallel.rebalance_threshold", 0.5, ">= 1"),
+                                ("parallel.balance", "maybe", "true or false")):
+        bad = base()
+        section, name = key.split(".")
+        bad.setdefault(section, {})[name] = value
+        with pytest.raises(ConfigError, match=message):
+            validate(bad)
+    db = PETSc.Options()
+    try:
+        db.setValue("pimpm_weak_node_fraction", "0.2")
+        db.setValue("pimpm_balance", "1")
+        out = with_command_line(cfg)
+        assert out["grid"]["weak_node_fraction"] == 0.2 and out["parallel"]["balance"] is True
+        assert cfg["grid"]["weak_node_fraction"] == 0.1          # the input itself unchanged
+        db.setValue("pimpm_rebalance_threshold", "0.9")
+        with pytest.raises(ValueError, match="-pimpm_rebalance_threshold 0.9: expected a number >= 1"):
+            with_command_line(cfg)
+    finally:
+        for option in ("pimpm_weak_node_fraction", "pimpm_balance", "pimpm_rebalance_threshold"):
+            db.delValue(option)

@@ -9,7 +9,7 @@ The normalized dict has every default filled in, floats as ``float``, integers a
 vectors as lists of length ``dim``, and an extra top-level key ``dim`` (2 or 3)::
 
     {"title": str, "dim": int,
-     "grid": {"lower", "upper", "cells", "shape_functions", "boundary"},
+     "grid": {"lower", "upper", "cells", "shape_functions", "boundary", "weak_node_fraction"},
      "kinematics": str,
      "materials": {name: {"model", "density", "shear_modulus", "bulk_modulus",
                           ["youngs_modulus", "poisson_ratio"], <the model's parameters>}},
@@ -18,7 +18,8 @@ vectors as lists of length ``dim``, and an extra top-level key ``dim`` (2 or 3):
      "time": {"integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
               "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
               "stress_update", "formulation", <the integrator's parameters>},
-     "solver": {"preset", "fallback", "convergence", "petsc": {option: str}},
+     "solver": {"preset", "fallback", "convergence", "petsc": {option: str}, "free_dofs_only"},
+     "parallel": {"balance", "rebalance_threshold"},
      "output": {"directory", "every"}}
 
 Modules: :mod:`.schema` (the keys and names), :mod:`.checks` (the error and the
@@ -35,7 +36,7 @@ from .functions import _validate_functions
 from .loads import _validate_loads
 from .checks import _MISSING, ROOT, ConfigError, _enum, _fail, _Section
 from .schema import KINEMATICS, TOP_KEYS
-from .sections import _validate_grid, _validate_output, _validate_solver, _validate_time
+from .sections import _validate_grid, _validate_output, _validate_parallel, _validate_solver, _validate_time
 from .yaml_input import _line_for, read_yaml
 
 __all__ = ["ConfigError", "load_config", "validate"]
@@ -78,11 +79,12 @@ def validate(raw, source_name=None, base_dir=None):
     time = _validate_time(top.required("time", "a mapping with dt and end_time"), "time", dim,
                           functions)
     solver = _validate_solver(top.optional("solver"), "solver")
+    parallel = _validate_parallel(top.optional("parallel"), "parallel")
     output = _validate_output(top.optional("output"), "output", source_name)
 
     config = {"title": title, "dim": dim, "functions": functions, "grid": grid, "kinematics": kin,
               "materials": materials, "bodies": bodies, "loads": loads, "time": time,
-              "solver": solver, "output": output}
+              "solver": solver, "parallel": parallel, "output": output}
     check_derived(config)
     return config
 

@@ -27,8 +27,10 @@ DEFAULT_OUTPUT_DIRECTORY = "pimpm_output"
 BBOX_RELATIVE_TOLERANCE = 1e-12
 
 TOP_KEYS = ("title", "functions", "grid", "kinematics", "materials", "bodies", "loads", "time",
-            "solver", "output")
-GRID_KEYS = ("lower", "upper", "cells", "shape_functions", "boundary")
+            "solver", "parallel", "output")
+GRID_KEYS = ("lower", "upper", "cells", "shape_functions", "boundary", "weak_node_fraction")
+#: nodes with less support than this fraction of a cell are extended out (GIMP, B-splines; pimpm.weak_nodes)
+DEFAULT_WEAK_NODE_FRACTION = 0.05
 ELASTIC_KEYS = ("shear_modulus", "bulk_modulus", "youngs_modulus", "poisson_ratio")
 #: parameters of all models, in registry order (each model declares its own)
 MODEL_PARAMETER_KEYS = tuple(dict.fromkeys(k for m in MODELS.values() for k in m.parameters))
@@ -43,7 +45,8 @@ TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "gravity_function", "dt_
              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
              "stress_update", "formulation") + tuple(
     dict.fromkeys(k for cls in _INTEGRATOR_REGISTRY.values() for k in cls.parameters))
-SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc")
+SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc", "free_dofs_only")
+PARALLEL_KEYS = ("balance", "rebalance_threshold")
 CONVERGENCE_KEYS = ("test", "displacement_tolerance", "energy_tolerance")
 SOLVER_PRESETS = tuple(PRESETS)
 CONVERGENCE_TESTS = ("petsc", "guilkey_weiss")

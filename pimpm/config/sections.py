@@ -1,4 +1,4 @@
-"""Validation of the grid, time, solver and output sections."""
+"""Validation of the grid, time, solver, parallel and output sections."""
 from collections.abc import Mapping
 
 from .functions import _function_ref
@@ -6,8 +6,9 @@ from .checks import (_MISSING, _Section, _bool, _enum, _fail, _float, _float_vec
     _is_int, _is_number, _join, _optional_mapping, _positive, _string)
 from ..integrators import INTEGRATORS as _INTEGRATORS
 from .schema import (AXES, BOUNDARY_ALIASES, BOUNDARY_TYPES, CONVERGENCE_KEYS, CONVERGENCE_TESTS,
-    DEFAULT_OUTPUT_DIRECTORY, DEFAULT_SHAPE_FUNCTIONS, FORMULATIONS, GRID_KEYS, INTEGRATORS, OUTPUT_KEYS, SHAPE_FUNCTIONS,
-    SOLVER_KEYS, SOLVER_PRESETS, STRESS_UPDATES, TIME_KEYS)
+    DEFAULT_OUTPUT_DIRECTORY, DEFAULT_SHAPE_FUNCTIONS, DEFAULT_WEAK_NODE_FRACTION, FORMULATIONS, GRID_KEYS,
+    INTEGRATORS, OUTPUT_KEYS, PARALLEL_KEYS, SHAPE_FUNCTIONS, SOLVER_KEYS, SOLVER_PRESETS, STRESS_UPDATES,
+    TIME_KEYS)
 
 
 def _validate_face(b, path, dim, functions):
@@ -59,8 +60,12 @@ def _validate_grid(value, path, functions=None):
         b = bsec.optional(face)
         boundary[face] = "free" if b is _MISSING else _validate_face(b, bsec.sub(face), dim,
                                                                        functions or {})
+    weak = sec.optional("weak_node_fraction")
+    weak = DEFAULT_WEAK_NODE_FRACTION if weak is _MISSING else _float(weak, sec.sub("weak_node_fraction"))
+    if not 0.0 <= weak < 1.0:
+        _fail(sec.sub("weak_node_fraction"), weak, "a number >= 0 and < 1 (0: no extension)")
     grid = {"lower": lower, "upper": upper, "cells": cells, "shape_functions": shape,
-            "boundary": boundary}
+            "boundary": boundary, "weak_node_fraction": weak}
     return grid, dim
 
 
@@ -191,8 +196,24 @@ def _validate_solver(value, path):
     for key, default in (("displacement_tolerance", 1e-6), ("energy_tolerance", 1e-12)):
         v = conv.optional(key)
         tols[key] = default if v is _MISSING else _positive(v, conv.sub(key))
+    free = sec.optional("free_dofs_only")
+    free = True if free is _MISSING else _bool(free, sec.sub("free_dofs_only"))
     return {"preset": preset, "fallback": fallback,
-            "convergence": dict(test=test, **tols), "petsc": petsc}
+            "convergence": dict(test=test, **tols), "petsc": petsc, "free_dofs_only": free}
+
+
+def _validate_parallel(value, path):
+    """How ranks share the grid: ``balance`` (ownership ranges chosen from the
+    particles; false: PETSc's even split) and ``rebalance_threshold`` (the
+    particle imbalance above which a step repartitions first, >= 1)."""
+    sec = _Section(_optional_mapping(value), path, PARALLEL_KEYS)
+    balance = sec.optional("balance")
+    balance = True if balance is _MISSING else _bool(balance, sec.sub("balance"))
+    threshold = sec.optional("rebalance_threshold")
+    threshold = 1.1 if threshold is _MISSING else _float(threshold, sec.sub("rebalance_threshold"))
+    if not threshold >= 1.0:
+        _fail(sec.sub("rebalance_threshold"), threshold, "a number >= 1 (the largest over the mean particle count)")
+    return {"balance": balance, "rebalance_threshold": threshold}
 
 
 def _validate_output(value, path, source_name):
