@@ -286,7 +286,8 @@ class Simulation:
     def rigid_increments(self, dt):
         """Each moving term's displacement over the step (name -> vector), and
         every rigid particle's (n_rigid, dim). After :meth:`begin_terms`."""
-        increments = {t.name: t.increment() for t in self.terms if t.increment() is not None}
+        increments = {t.name: t.increment() for t in self.terms}
+        increments = {name: step for name, step in increments.items() if step is not None}
         moves = np.zeros((len(self.rigid), self.dim))
         for term in self.terms:
             displacement = term.particle_displacement(self.rigid)

@@ -47,18 +47,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 sys.path.insert(0, ROOT)
 from bench_solvers import block3d, parse_log  # noqa: E402
+from worktrees import worktree  # noqa: E402
 from pimpm.measures import bulge_from_fields, edge_particle_id  # noqa: E402
 
 STAGES = ("P2G", "Solve", "Constitutive update", "Assembly", "G2P", "Migration", "Output")
 CASES = ("billet-linear", "billet-gimp", "billet-quarter", "billet-quarter-linear", "block-3d", "billet-explicit")
-
-
-def worktree(commit):
-    path = os.path.join(tempfile.gettempdir(), f"pimpm-baseline-{commit}")
-    if not os.path.isdir(path):
-        subprocess.run(["git", "-C", ROOT, "worktree", "add", "--detach", path, commit], check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return path
 
 
 def case_input(tree, case):

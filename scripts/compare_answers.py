@@ -27,6 +27,8 @@ import h5py
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from worktrees import worktree  # noqa: E402
 PYTHON = os.path.join(ROOT, ".venv", "bin", "python")
 if not os.path.exists(PYTHON):
     PYTHON = sys.executable
@@ -42,14 +44,6 @@ CASES = {
     "four-disks": ("four_disks.yaml", []),
     "colliding-disks": ("colliding_disks.yaml", []),
 }
-
-
-def worktree(commit):
-    path = os.path.join(tempfile.gettempdir(), f"pimpm-baseline-{commit}")
-    if not os.path.isdir(path):
-        subprocess.run(["git", "-C", ROOT, "worktree", "add", "--detach", path, commit], check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return path
 
 
 def run(tree, case, ranks, out):

@@ -27,18 +27,26 @@ def current_internal_force(kinematics, axes, footprint, node_index, S, G, radius
     Fp = np.empty((3, 3))
     for p in range(S.shape[0]):
         copy3(F, p, Fp)
-        v = volume0[p] * det3(Fp)
+        _add_stress_force(kinematics, axes, footprint, node_index, S, G, radius, sigma, p,
+                          volume0[p] * det3(Fp), force, 0)
+
+
+@jit
+def _add_stress_force(kinematics, axes, footprint, node_index, S, G, radius, sigma, p, v, out, column):
+    """Particle p's v sigma_p G_ip (plus the axisymmetric hoop force v
+    sigma_22 S_ip / r_p in the radial component) added into the columns of
+    ``out`` from ``column`` on."""
+    for k in footprint:
+        node = node_index[p, k]
+        for a in axes:
+            s = 0.0
+            for b in axes:
+                s += G[p, k, b] * sigma[p, a, b]
+            out[node, column + a] += v * s
+    if kinematics == AXISYMMETRIC:
+        h = v * sigma[p, 2, 2] / radius[p]
         for k in footprint:
-            node = node_index[p, k]
-            for a in axes:
-                s = 0.0
-                for b in axes:
-                    s += G[p, k, b] * sigma[p, a, b]
-                force[node, a] += v * s
-        if kinematics == AXISYMMETRIC:
-            h = v * sigma[p, 2, 2] / radius[p]
-            for k in footprint:
-                force[node_index[p, k], 0] += h * S[p, k]
+            out[node_index[p, k], column] += h * S[p, k]
 
 
 @jit
@@ -49,10 +57,16 @@ def strain_energy(models, params, material_of, F, h, volume0):
     total = 0.0
     Fp = np.empty((3, 3))
     for p in range(F.shape[0]):
-        copy3(F, p, Fp)
-        m = material_of[p]
-        total += volume0[p] * model_energy(models[m], params[m], Fp, h[p])
+        total += volume0[p] * _energy(models, params, material_of, F, h, p, Fp)
     return total
+
+
+@jit
+def _energy(models, params, material_of, F, h, p, Fp):
+    """Particle p's stored energy per reference volume (``Fp``: scratch)."""
+    copy3(F, p, Fp)
+    m = material_of[p]
+    return model_energy(models[m], params[m], Fp, h[p])
 
 
 @jit
@@ -69,26 +83,25 @@ def explicit_p2g(kinematics, axes, footprint, node_index, S, G, radius, mass, ve
     mv = np.empty(dim)
     f0 = 1 + dim
     for p in range(S.shape[0]):
-        m = mass[p]
-        for a in axes:
-            mv[a] = m * velocity[p, a]
-        copy3(F, p, Fp)
-        v = volume0[p] * det3(Fp)
         for k in footprint:
-            node = node_index[p, k]
-            wk = S[p, k]
-            out[node, 0] += wk * m
-            for a in axes:
-                out[node, 1 + a] += wk * mv[a]
-            for a in axes:
-                s = 0.0
-                for b in axes:
-                    s += G[p, k, b] * sigma[p, a, b]
-                out[node, f0 + a] += v * s
-        if kinematics == AXISYMMETRIC:
-            h = v * sigma[p, 2, 2] / radius[p]
-            for k in footprint:
-                out[node_index[p, k], f0] += h * S[p, k]
+            out[node_index[p, k], 0] += S[p, k] * mass[p]
+        _add_momentum(axes, footprint, node_index, S, p, mass[p], velocity, mv, out, 1)
+        copy3(F, p, Fp)
+        _add_stress_force(kinematics, axes, footprint, node_index, S, G, radius, sigma, p,
+                          volume0[p] * det3(Fp), out, f0)
+
+
+@jit
+def _add_momentum(axes, footprint, node_index, S, p, m, velocity, mv, out, column):
+    """Particle p's momentum S_ip m v_p added into the columns of ``out``
+    from ``column`` on (``mv``: scratch of length dim)."""
+    for a in axes:
+        mv[a] = m * velocity[p, a]
+    for k in footprint:
+        node = node_index[p, k]
+        wk = S[p, k]
+        for a in axes:
+            out[node, column + a] += wk * mv[a]
 
 
 @jit
@@ -112,14 +125,7 @@ def explicit_g2p(axes, footprint, node_index, S, dt, nodal, mass, velocity, x, n
                 new_velocity[p, c] = velocity[p, c] + dt * s
             else:
                 new_x[p, c - dim] = x[p, c - dim] + dt * s
-        m = mass[p]
-        for a in axes:
-            mv[a] = m * new_velocity[p, a]
-        for k in footprint:
-            node = node_index[p, k]
-            wk = S[p, k]
-            for a in axes:
-                momentum[node, a] += wk * mv[a]
+        _add_momentum(axes, footprint, node_index, S, p, mass[p], new_velocity, mv, momentum, 0)
 
 
 @jit
@@ -127,6 +133,4 @@ def point_energies(models, params, material_of, F, h, out):
     """out[p] = W_p, each particle's stored energy per reference volume."""
     Fp = np.empty((3, 3))
     for p in range(F.shape[0]):
-        copy3(F, p, Fp)
-        m = material_of[p]
-        out[p] = model_energy(models[m], params[m], Fp, h[p])
+        out[p] = _energy(models, params, material_of, F, h, p, Fp)

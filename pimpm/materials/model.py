@@ -129,7 +129,30 @@ def youngs_modulus(shear_modulus, bulk_modulus):
     return 9.0 * bulk_modulus * shear_modulus / (3.0 * bulk_modulus + shear_modulus)
 
 
-class Material:
+class ElasticConstants:
+    """The constants derived from ``shear_modulus``, ``bulk_modulus`` and
+    ``density`` (mixed into pimpm's materials and their numpy references)."""
+
+    @property
+    def lame_lambda(self):
+        """First Lame parameter lambda = kappa - 2/3 mu."""
+        return self.bulk_modulus - 2.0 / 3.0 * self.shear_modulus
+
+    @property
+    def youngs_modulus(self):
+        return youngs_modulus(self.shear_modulus, self.bulk_modulus)
+
+    @property
+    def p_wave_modulus(self):
+        """kappa + 4/3 mu (uniaxial-strain stiffness)."""
+        return self.bulk_modulus + 4.0 / 3.0 * self.shear_modulus
+
+    def wave_speed(self):
+        """Small-strain dilatational wave speed sqrt((kappa + 4/3 mu) / rho)."""
+        return float(np.sqrt(self.p_wave_modulus / self.density))
+
+
+class Material(ElasticConstants):
     """A model with its values: the shear and bulk moduli, the density and
     the model's own parameters (``values``: name -> number; a parameter
     not given takes its default, or its packed ``absent`` value)."""
@@ -172,24 +195,6 @@ class Material:
         (:func:`parameter_offsets`)."""
         return np.array([self.shear_modulus, self.bulk_modulus] + list(self.values.values())
                         + list(self.model.constants.values()))
-
-    @property
-    def lame_lambda(self):
-        """First Lame parameter lambda = kappa - 2/3 mu."""
-        return self.bulk_modulus - 2.0 / 3.0 * self.shear_modulus
-
-    @property
-    def youngs_modulus(self):
-        return youngs_modulus(self.shear_modulus, self.bulk_modulus)
-
-    @property
-    def p_wave_modulus(self):
-        """kappa + 4/3 mu (uniaxial-strain stiffness)."""
-        return self.bulk_modulus + 4.0 / 3.0 * self.shear_modulus
-
-    def wave_speed(self):
-        """Small-strain dilatational wave speed sqrt((kappa + 4/3 mu) / rho)."""
-        return float(np.sqrt(self.p_wave_modulus / self.density))
 
     def __repr__(self):
         values = "".join(f", {k}={v!r}" for k, v in self.values.items())

@@ -6,11 +6,12 @@ check both against finite differences of the energies. Tangent convention:
 :mod:`pimpm.materials.model`."""
 import numpy as np
 
-from pimpm.materials import MODELS, youngs_modulus
+from pimpm.materials import MODELS
 from pimpm.materials import Material as PimpmMaterial
+from pimpm.materials.model import ElasticConstants
 
 
-class Material:
+class Material(ElasticConstants):
     """Common interface. Subclasses set ``name`` and implement ``_kernel``
     and ``_energy`` (or override :meth:`update` and :meth:`strain_energy`)."""
 
@@ -31,20 +32,6 @@ class Material:
                 f"{self.name}: shear_modulus, bulk_modulus and density must be > 0 "
                 f"(got {shear_modulus}, {bulk_modulus}, {density})"
             )
-
-    @property
-    def lame_lambda(self):
-        """First Lame parameter lambda = kappa - 2/3 mu."""
-        return self.bulk_modulus - 2.0 / 3.0 * self.shear_modulus
-
-    @property
-    def youngs_modulus(self):
-        return youngs_modulus(self.shear_modulus, self.bulk_modulus)
-
-    @property
-    def p_wave_modulus(self):
-        """kappa + 4/3 mu (uniaxial-strain stiffness)."""
-        return self.bulk_modulus + 4.0 / 3.0 * self.shear_modulus
 
     @property
     def code(self):
@@ -77,10 +64,6 @@ class Material:
         have none)."""
         sigma, c = self._kernel(F, tangent=tangent)
         return sigma, c, {}
-
-    def wave_speed(self):
-        """Small-strain dilatational wave speed sqrt((kappa + 4/3 mu) / rho)."""
-        return float(np.sqrt((self.bulk_modulus + 4.0 / 3.0 * self.shear_modulus) / self.density))
 
     def _kernel(self, F, tangent):  # pragma: no cover - abstract
         raise NotImplementedError

@@ -1,22 +1,8 @@
-"""Small-strain models embedded in the finite-deformation solver: linear
-elasticity and J2 (von Mises) plasticity with the bilinear hardening /
-softening of Sulsky & Kaul (2004) eq. 2.1.13-2.1.19, radial return and its
-algorithmic tangent. Pure functions of arrays.
-
-The strain is accumulated step by step, eps = eps_n + sym(F_inc) - 1 with
-F_inc = F F_n^-1 the increment since the last converged step (the rate form
-of Sulsky & Kaul, sigma_dot = C : (d - d_pl), integrated with the grid's
-incremental deformation; for small strains it is sym(F) - 1), and the
-stress is sigma = D : (eps - eps_p). So that Newton converges
-quadratically, the spatial tangent handed to the assembly is the exact
-derivative of this stress under the solver's convention (d tau = J c:H +
-H tau + tau H^T for F -> (1 + H) F, so d eps = sym(H F_inc)):
-
-    c_abcd = sigma_ab d_cd + D_abce (F_inc)_de - d_ac sigma_db - d_bc sigma_ad
-
-with D the (algorithmic) small-strain tangent d sigma / d eps. It has no
-minor symmetry in general, which the assembly does not assume.
-"""
+"""Small-strain linear elasticity and J2 plasticity with Sulsky & Kaul's
+bilinear hardening / softening (eq. 2.1.13-2.1.19), radial return and its
+algorithmic tangent, as pure functions of arrays: the numpy reference of
+pimpm/materials/small_strain.py, whose docstring gives the accumulated
+strain and the exact spatial tangent both compute."""
 import numpy as np
 
 from .base import Material, PlasticParameters
