@@ -5,7 +5,6 @@ import numpy as np
 from mpi4py import MPI
 
 from .kernels import stress as stress_kernels
-from .materials.table import MaterialTable
 
 
 def _kinetic(particles):
@@ -13,13 +12,12 @@ def _kinetic(particles):
     return 0.5 * float(np.sum(p["mass"] * np.sum(p["v"] ** 2, axis=1)))
 
 
-def _stored(particles, material_groups):
+def _stored(particles, table):
     p = particles
     if not len(p):
         return 0.0
-    table = MaterialTable(material_groups, len(p))
-    history = {k: p["h_" + k] for m, _ in material_groups for k in m.history}
-    return stress_kernels.strain_energy(table.models, table.params, table.material_of, p["F"],
+    history = {k: p["h_" + k] for m, _ in table.groups for k in m.history}
+    return stress_kernels.strain_energy(table.only_model, table.models, table.params, table.material_of, p["F"],
                                         table.pack(history), p["volume0"])
 
 
@@ -28,15 +26,16 @@ def kinetic_energy(particles, comm):
     return float(comm.allreduce(_kinetic(particles)))
 
 
-def strain_energy(particles, material_groups, comm):
+def strain_energy(particles, table, comm):
     """Stored energy of every material (per reference volume, times it),
-    compiled (:func:`pimpm.kernels.stress.strain_energy`). Collective."""
-    return float(comm.allreduce(_stored(particles, material_groups)))
+    compiled (:func:`pimpm.kernels.stress.strain_energy`); ``table``: the
+    particles' :class:`pimpm.materials.table.MaterialTable`. Collective."""
+    return float(comm.allreduce(_stored(particles, table)))
 
 
-def energies(particles, material_groups, comm):
+def energies(particles, table, comm):
     """(kinetic, stored) energy in one reduction. Collective."""
-    kinetic, stored = comm.allreduce(np.array([_kinetic(particles), _stored(particles, material_groups)]))
+    kinetic, stored = comm.allreduce(np.array([_kinetic(particles), _stored(particles, table)]))
     return float(kinetic), float(stored)
 
 

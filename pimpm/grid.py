@@ -107,9 +107,7 @@ class Grid:
     def contains(self, x):
         """Do all positions ``x`` (n, dim) lie inside the grid (closed box)?
         (False for a NaN.)"""
-        if not len(x):
-            return True
-        return bool(np.all(np.min(x, axis=0) >= self.lower) and np.all(np.max(x, axis=0) <= self.upper))
+        return bool(reorder.all_inside(np.ascontiguousarray(x, dtype=float), self.lower, self.upper))
 
     def owner_of_positions(self, x):
         """MPI rank owning the cell that holds each position (n, dim), clipped

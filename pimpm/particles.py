@@ -5,6 +5,8 @@ rank that owns their cell (see :mod:`pimpm.grid`). After every step they are
 migrated with one ``Alltoallv`` that moves every field at once; the global
 count and mass are checked by the caller.
 """
+import math
+
 import numpy as np
 from mpi4py import MPI
 
@@ -53,7 +55,7 @@ def take(a, index, out=None):
     elif not out.flags.c_contiguous or out.dtype != a.dtype:
         # reshape of a non-contiguous out would copy, and the rows be lost
         raise ValueError("take: out must be C-contiguous and of a's dtype")
-    width = int(np.prod(a.shape[1:], dtype=np.int64))
+    width = math.prod(a.shape[1:])
     reorder.take_rows(np.ascontiguousarray(a).reshape(len(a), width), index,
                       out.reshape(len(index), width))
     return out
@@ -77,7 +79,7 @@ def migrate(comm, particle_set, destination):
         return
     names = sorted(particle_set.fields)
     arrays = [particle_set.fields[k] for k in names]
-    widths = [int(np.prod(a.shape[1:])) for a in arrays]
+    widths = [math.prod(a.shape[1:]) for a in arrays]
     ncol = sum(widths)
     go = np.flatnonzero(leaving)
     go = go[np.argsort(destination[go], kind="stable")]

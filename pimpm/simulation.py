@@ -53,6 +53,7 @@ class Simulation:
             raise SetupError(str(err)) from None
         self.comm = comm
         self.dim = dim = config["dim"]
+        self._material_table = None            # (particles' body array, its MaterialTable)
         problem = resources.check(config, comm.size, 8 * np.dtype(PETSc.IntType).itemsize)
         if problem:                   # before anything is allocated
             raise SetupError(problem)
@@ -184,17 +185,27 @@ class Simulation:
 
     def material_groups(self):
         """[(material, particle index)] for the deformable particles."""
-        lookup = np.full(len(self.body_names), -1, dtype=np.int64)
-        for body, material in self.body_material.items():
-            lookup[body] = material
-        material_of = lookup[self.particles["body"]]
-        return [(material, np.flatnonzero(material_of == mi)) for mi, material in enumerate(self.materials)]
+        return self.material_table().groups
+
+    def material_table(self):
+        """The particles' materials as the kernels take them
+        (:class:`pimpm.materials.table.MaterialTable`), made again only when
+        migration or sorting has replaced the particle arrays."""
+        body = self.particles["body"]
+        if self._material_table is None or self._material_table[0] is not body:
+            lookup = np.full(len(self.body_names), -1, dtype=np.int64)
+            for b, material in self.body_material.items():
+                lookup[b] = material
+            material_of = lookup[body]
+            groups = [(material, np.flatnonzero(material_of == mi)) for mi, material in enumerate(self.materials)]
+            self._material_table = (body, MaterialTable(groups, len(body)))
+        return self._material_table[1]
 
     def kinetic_energy(self):
         return energy.kinetic_energy(self.particles, self.comm)
 
     def strain_energy(self):
-        return energy.strain_energy(self.particles, self.material_groups(), self.comm)
+        return energy.strain_energy(self.particles, self.material_table(), self.comm)
 
     @property
     def external_work(self):
@@ -332,8 +343,8 @@ class Simulation:
         stiffness_weight = grid.sum_scalar_to_owned(weight)
         cons = bc.build_constraints(grid, self.terms, self.boundary, mass, dt, self.mass_floor,
                                     stiffness_weight, self.time, self.functions)
-        groups = self.material_groups()
-        materials = MaterialTable(groups, len(p))
+        materials = self.material_table()
+        groups = materials.groups
         history = self.particle_history()
         active = kernel_pattern.active_entries(S, G)
         state = StepState(
@@ -468,7 +479,7 @@ class Simulation:
                     load_forces={load.name: load.resultant(self.time) for load in self.loads},
                     load_displacements={load.name: load_displacement(load, self.particles, self.comm)
                                         for load in self.loads})
-        kinetic, stored = energy.energies(self.particles, self.material_groups(), self.comm)
+        kinetic, stored = energy.energies(self.particles, self.material_table(), self.comm)
         info.update(forces=forces, external_work=self.work.total,
                     kinetic_energy=kinetic, strain_energy=stored,
                     particle_imbalance=self.step_imbalance,

@@ -62,3 +62,6 @@ if CACHE_DIRECTORY is not None:
 #: the compiler options of every kernel (also those of numba.extending.overload's)
 JIT_OPTIONS = {"error_model": "numpy", "nogil": True}
 jit = numba.njit(cache=CACHE_DIRECTORY is not None, **JIT_OPTIONS)
+#: for a few-line helper called in an inner loop: inlined where numba compiles
+#: the caller (a call with array arguments costs tens of ns per particle)
+jit_inline = numba.njit(cache=CACHE_DIRECTORY is not None, inline="always", **JIT_OPTIONS)

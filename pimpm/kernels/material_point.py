@@ -85,19 +85,28 @@ def _model_point(only, model, prm, F, h_in, h_out, sigma, c, want_c, w, D, in_pl
     return single
 
 
-def model_energy(model, prm, F, h):
+def model_energy(only, model, prm, F, h):
     """Stored energy per unit reference volume of one particle of model
-    code ``model`` (committed history ``h``). Compiled code only."""
+    code ``model`` (committed history ``h``); ``only`` as in
+    :func:`model_point`. Compiled code only."""
     raise NotImplementedError("model_energy runs only in compiled kernels")
 
 
 @overload(model_energy, jit_options=JIT_OPTIONS)
-def _model_energy(model, prm, F, h):
-    dispatch = _dispatcher([m.energy for m in _registry()], ("prm", "F", "h"))
+def _model_energy(only, model, prm, F, h):
+    models = _registry()
+    code = len(only.types) - 1
+    if code == MIXED:
+        dispatch = _dispatcher([m.energy for m in models], ("prm", "F", "h"))
 
-    def energy(model, prm, F, h):
-        return dispatch(model, prm, F, h)
-    return energy
+        def dispatched(only, model, prm, F, h):
+            return dispatch(model, prm, F, h)
+        return dispatched
+    energy = models[code].energy
+
+    def single(only, model, prm, F, h):
+        return energy(prm, F, h)
+    return single
 
 
 @jit

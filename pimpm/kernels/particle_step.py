@@ -97,9 +97,16 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
             if not active[p, k]:
                 continue
             node = node_index[p, k]
-            for a in range(dim):
-                for b in range(dim):
-                    grad[a, b] += u[node, a] * G[p, k, b]
+            if dim == 2:              # written out: numba leaves loops of length dim rolled
+                u0, u1, g0, g1 = u[node, 0], u[node, 1], G[p, k, 0], G[p, k, 1]
+                grad[0, 0] += u0 * g0
+                grad[0, 1] += u0 * g1
+                grad[1, 0] += u1 * g0
+                grad[1, 1] += u1 * g1
+            else:
+                for a in range(dim):
+                    for b in range(dim):
+                        grad[a, b] += u[node, a] * G[p, k, b]
         for a in range(3):
             for b in range(3):
                 Fi[a, b] = (1.0 if a == b else 0.0) + (grad[a, b] if (a < dim and b < dim) else 0.0)

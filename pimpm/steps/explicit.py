@@ -16,7 +16,6 @@ from .. import bc
 from ..errors import THICKNESS_FAILURE, StepFailed
 from ..kernels import particle_step
 from ..kernels.stress import current_internal_force, explicit_g2p, explicit_p2g
-from ..materials.table import MaterialTable
 from ..stages import log_stage
 
 _NO_RADIUS = np.zeros(0)
@@ -36,7 +35,7 @@ class ParticleStress:
         self.sim = sim
         self.node_index, self.S, self.G = node_index, S, G
         self.active = np.ones(S.shape, dtype=np.bool_)     # footprint entries outside the body add zero
-        self.table = MaterialTable(sim.material_groups(), len(p))
+        self.table = sim.material_table()
         self.history = sim.particle_history()
         radius = sim.kinematics.radius(p["x"])
         self.radius = _NO_RADIUS if radius is None else radius

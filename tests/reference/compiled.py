@@ -58,6 +58,6 @@ class Compiled:
         n = len(F)
         table = self._table(n)
         out = np.empty(n)
-        stress.point_energies(table.models, table.params, table.material_of, F,
+        stress.point_energies(table.only_model, table.models, table.params, table.material_of, F,
                               table.pack(self._history(n, history)), out)
         return out
