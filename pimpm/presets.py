@@ -4,6 +4,7 @@ pimpm's own ``pimpm_*`` settings), refined by the YAML ``solver: {petsc:
 the solver (a direct fallback, rigid-body modes, a symmetric tangent, a
 shell matrix) is derived from its options. No PETSc import here: the input
 schema reads the names."""
+from dataclasses import dataclass
 
 #: GAMG settings, measured on whole runs of the 50% billet (docs/PERFORMANCE.md,
 #: scripts/bench_presets.py): plain (unsmoothed) aggregation keeps GMRES at
@@ -60,3 +61,125 @@ def matrix_free(options):
 def petsc_options(options):
     """The options for PETSc's database: without pimpm's own settings."""
     return {k: v for k, v in options.items() if not k.startswith("pimpm_")}
+
+
+# ------------------------------------------------------------ option resolution
+#: the program's defaults for PETSc options (the preset, then the YAML, then
+#: the command line override them). The tolerances: answers within 5e-9
+#: relative of runs converged to rtol 1e-13 on the billet, the colliding
+#: disks and the J2 upsetting (scripts/newton_tolerances.py,
+#: docs/PERFORMANCE.md), so that runs on different numbers of ranks agree to
+#: 1e-8; rtol 1e-6 moves the upsetting's force by 1.2e-8, atol 1e-10 the
+#: disks' energies by 8.5e-8.
+DEFAULT_SOLVER_OPTIONS = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "bt",
+    "snes_rtol": "1e-8",
+    "snes_atol": "1e-12",        # the residual is dimensionless (Sulsky & Kaul 3.2.2)
+    "snes_max_it": "30",
+}
+
+_TRUE, _FALSE = ("", "1", "true", "yes", "on"), ("0", "false", "no", "off")
+
+
+@dataclass(frozen=True)
+class SolverPlan:
+    """What the Newton solver is made of, resolved from the input and the
+    command line before any PETSc object exists (:func:`resolve`)."""
+    preset: str
+    #: the program's options for PETSc's database: defaults < preset <
+    #: per-problem adjustments < YAML ``solver.petsc`` (the command line, already
+    #: in the database, wins over all of them when they are inserted)
+    options: dict
+    iterative: bool
+    matrix_free: bool
+    #: iterative solve with a direct fallback (pimpm.linear.FallbackKSP)
+    fallback: bool
+    #: a direct solve of the free dofs only (pimpm.linear.FreeDofsKSP)
+    free_dofs: bool
+    #: the tangent matrix carries the symmetry flags
+    symmetric: bool
+    #: GAMG gets the rigid-body modes
+    near_null_space: bool
+    #: the tangent is assembled on the step's particle pattern
+    on_pattern: bool
+    mf_operator: bool
+    #: ("petsc", None, None) or ("guilkey_weiss", displacement tolerance, energy tolerance)
+    convergence: tuple
+
+
+def _word(command_line, name, default):
+    return command_line.get(name, default)
+
+
+def _flag(command_line, name, default):
+    if name not in command_line:
+        return default
+    text = str(command_line[name]).strip().lower()
+    if text in _TRUE or text in _FALSE:
+        return text in _TRUE
+    raise ValueError(f"-{name} {command_line[name]}: expected true or false (1 or 0)")
+
+
+def _number(command_line, name, default):
+    if name not in command_line:
+        return default
+    try:
+        return float(command_line[name])
+    except ValueError:
+        raise ValueError(f"-{name} {command_line[name]}: expected a number") from None
+
+
+def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern, coo, asymmetry=""):
+    """The solver of a run from the input's ``solver`` section, the command
+    line (``command_line``: PETSc's options database as {name: value}, no
+    dash) and what the step's problem is like (a ``symmetric`` tangent, the
+    dimension, whether it assembles on the particles' pattern through COO
+    values; ``asymmetry`` says why it is not symmetric, for the message).
+    A pure function; ValueError naming the option or key and its value."""
+    preset = _word(command_line, "pimpm_preset", solver_config["preset"])
+    if preset not in PRESETS:
+        raise ValueError(f"-pimpm_preset {preset}: expected one of {', '.join(PRESETS)}")
+    preset_options = PRESETS[preset]
+    is_iterative = iterative(preset_options)
+    is_matrix_free = matrix_free(preset_options)
+    if needs_symmetric_tangent(preset_options) and not symmetric:
+        where = "-pimpm_preset" if "pimpm_preset" in command_line else "solver.preset"
+        raise ValueError(f"{where} = {preset!r}: expected a preset for non-symmetric "
+                         f"tangents (gmres-gamg, mumps, jfnk or matrix-free) with {asymmetry}")
+    wants_fallback = _flag(command_line, "pimpm_fallback", bool(solver_config["fallback"]))
+    use_fallback = is_iterative and not is_matrix_free and wants_fallback
+    options = dict(DEFAULT_SOLVER_OPTIONS)
+    options.update(petsc_options(preset_options))
+    if use_fallback:
+        options.update(FALLBACK_OPTIONS)
+    if symmetric:
+        # a symmetric tangent is factorized by MUMPS's LDL^T (half the work
+        # of LU); -pc_type lu on the command line or in the YAML still wins
+        options.update({k: "cholesky" for k, v in options.items() if k.endswith("pc_type") and v == "lu"})
+    if dim == 2:
+        # MUMPS's ordering: AMF. On the 0.25 cm billet its analysis takes 12 ms
+        # where the automatic choice takes 170 ms, for the same factorization
+        # cost; the pattern changes as particles move, so the analysis is
+        # repeated at most steps (docs/PERFORMANCE.md)
+        options.update({"mat_mumps_icntl_7": "2", "fallback_mat_mumps_icntl_7": "2"})
+    options.update(solver_config["petsc"])          # the YAML refines the preset
+    setting = lambda key: command_line.get(key, options.get(key))  # noqa: E731
+    mf_operator = "snes_mf_operator" in command_line or "snes_mf_operator" in options
+    on_pattern = assembles_on_pattern and not is_matrix_free
+    free_dofs = bool(solver_config.get("free_dofs_only", True) and on_pattern and coo and not use_fallback
+                     and not mf_operator and setting("ksp_type") == "preonly"
+                     and setting("pc_type") in ("lu", "cholesky"))
+    conv = solver_config["convergence"]
+    test = _word(command_line, "pimpm_convergence_test", conv["test"])
+    if test == "guilkey_weiss":
+        convergence = (test, _number(command_line, "pimpm_gw_displacement_tol", float(conv["displacement_tolerance"])),
+                       _number(command_line, "pimpm_gw_energy_tol", float(conv["energy_tolerance"])))
+    elif test == "petsc":
+        convergence = (test, None, None)
+    else:
+        raise ValueError(f"-pimpm_convergence_test {test}: expected petsc or guilkey_weiss")
+    return SolverPlan(preset=preset, options=options, iterative=is_iterative, matrix_free=is_matrix_free,
+                      fallback=use_fallback, free_dofs=free_dofs, symmetric=symmetric and not is_matrix_free,
+                      near_null_space=is_iterative and not is_matrix_free, on_pattern=on_pattern,
+                      mf_operator=mf_operator, convergence=convergence)

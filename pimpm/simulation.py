@@ -34,13 +34,13 @@ from .partition import balanced_ownership, cell_layer_weights, particle_imbalanc
 from .particles import ParticleSet, migrate, sort_by_footprint
 from .seeding import overlapping_bodies, particles_per_body, seed_bodies
 from .shape import make_shape
-from .solver import DEFAULT_SOLVER_OPTIONS, NewtonSolver, diagnose_solver_options
+from .solver import NewtonSolver, diagnose_solver_options
 from .stages import log_stage, log_stages
 from .terms import BondedRigidBody, StepContext, make_terms
 from .steps import explicit as explicit_step
 from .transfer import grid_to_particle, particle_to_grid
 
-__all__ = ["Simulation", "SetupError", "StepFailed", "DEFAULT_SOLVER_OPTIONS"]
+__all__ = ["Simulation", "SetupError", "StepFailed"]
 
 
 class Simulation:
@@ -157,8 +157,7 @@ class Simulation:
                                                            if not m.symmetric_tangent],
                                    terms=self.terms)
         try:
-            self.solver = NewtonSolver(self.grid, self.problem, config["solver"],
-                                       DEFAULT_SOLVER_OPTIONS, self.stages)
+            self.solver = NewtonSolver(self.grid, self.problem, config["solver"], self.stages)
         except (PETSc.Error, ValueError) as err:
             raise SetupError(diagnose_solver_options(config, err)) from None
 

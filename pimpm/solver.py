@@ -1,8 +1,10 @@
 """PETSc plumbing of the Newton solve (G&W 3.3 steps 3-6): SNES on the DMDA
 with the problem's residual and tangent (:mod:`pimpm.implicit.problem`),
 solver presets, options, the iterative-then-direct fallback and the
-convergence test. Every choice comes from the PETSc options database:
-command line > YAML ``solver.petsc`` > preset > :data:`DEFAULT_SOLVER_OPTIONS`.
+convergence test. What the solver is made of is resolved first, as data
+(:func:`pimpm.presets.resolve`: command line > YAML ``solver.petsc`` >
+per-problem adjustments > preset > the program's defaults); PETSc reads the
+options from its database.
 """
 import atexit
 import weakref
@@ -15,23 +17,7 @@ from petsc4py import PETSc
 from .convergence import GuilkeyWeissTest
 from . import presets
 from .linear import FallbackKSP, FreeDofsKSP, rigid_body_near_null_space
-from .presets import FALLBACK_OPTIONS, PRESETS
-from .options import pimpm_option
 from .stages import log_stage
-
-#: program defaults for PETSc options (the preset, then the YAML, then the command line override).
-#: The tolerances: answers within 5e-9 relative of runs converged to rtol
-#: 1e-13 on the billet, the colliding disks and the J2 upsetting
-#: (scripts/newton_tolerances.py, docs/PERFORMANCE.md), so that runs on
-#: different numbers of ranks agree to 1e-8; rtol 1e-6 moves the upsetting's
-#: force by 1.2e-8, atol 1e-10 the disks' energies by 8.5e-8.
-DEFAULT_SOLVER_OPTIONS = {
-    "snes_type": "newtonls",
-    "snes_linesearch_type": "bt",
-    "snes_rtol": "1e-8",
-    "snes_atol": "1e-12",        # the residual is dimensionless (Sulsky & Kaul 3.2.2)
-    "snes_max_it": "30",
-}
 
 
 def diagnose_solver_options(config, err):
@@ -152,64 +138,30 @@ class NewtonSolver:
     the DMDA, or a shell for the matrix-free preset), and the solution and
     residual vectors. ``problem`` is a :class:`pimpm.implicit.StepProblem`."""
 
-    def __init__(self, grid, problem, solver_config, default_options=DEFAULT_SOLVER_OPTIONS,
-                 stages=None):
+    def __init__(self, grid, problem, solver_config, stages=None):
         self.grid = grid
         self.problem = problem
         self.da = grid.da
         self.stages = stages or {}
-        db = PETSc.Options()
-        self.preset = pimpm_option("pimpm_preset", solver_config["preset"])
-        if self.preset not in PRESETS:
-            raise ValueError(f"-pimpm_preset {self.preset}: expected one of {', '.join(PRESETS)}")
-        preset_options = PRESETS[self.preset]
-        iterative = presets.iterative(preset_options)
-        self.matrix_free = presets.matrix_free(preset_options)
-        if presets.needs_symmetric_tangent(preset_options) and not problem.symmetric:
-            where = "-pimpm_preset" if db.hasName("pimpm_preset") else "solver.preset"
-            raise ValueError(f"{where} = {self.preset!r}: expected a preset for non-symmetric "
-                             f"tangents (gmres-gamg, mumps, jfnk or matrix-free) with {problem.asymmetry}")
+        plan = presets.resolve(solver_config, command_line_options(), symmetric=problem.symmetric,
+                               dim=grid.dim, assembles_on_pattern=problem.assembles_on_pattern,
+                               coo=problem.coo, asymmetry=problem.asymmetry)
+        self.plan = plan
+        self.preset = plan.preset
+        self.matrix_free = plan.matrix_free
+        self.options = plan.options
         self.fallback = None
-        fallback = pimpm_option("pimpm_fallback", bool(solver_config["fallback"]))
-        use_fallback = iterative and not self.matrix_free and fallback
-        options = dict(default_options)
-        options.update(presets.petsc_options(preset_options))
-        if use_fallback:
-            options.update(FALLBACK_OPTIONS)
-        if problem.symmetric:
-            # a symmetric tangent is factorized by MUMPS's LDL^T (half the work
-            # of LU); -pc_type lu on the command line or in the YAML still wins
-            options.update({k: "cholesky" for k, v in options.items()
-                            if k.endswith("pc_type") and v == "lu"})
-        if grid.dim == 2:
-            # MUMPS's ordering: AMF. On the 0.25 cm billet its analysis takes 12 ms
-            # where the automatic choice takes 170 ms, for the same factorization
-            # cost; the pattern changes as particles move, so the analysis is
-            # repeated at most steps (docs/PERFORMANCE.md)
-            options.update({"mat_mumps_icntl_7": "2", "fallback_mat_mumps_icntl_7": "2"})
-        options.update(solver_config["petsc"])          # the YAML refines the preset
-        self.options = options
-        conv = solver_config["convergence"]
-        test = pimpm_option("pimpm_convergence_test", conv["test"])
         self.gw_test = None
-        if test == "guilkey_weiss":
-            self.gw_test = GuilkeyWeissTest(
-                pimpm_option("pimpm_gw_displacement_tol", float(conv["displacement_tolerance"])),
-                pimpm_option("pimpm_gw_energy_tol", float(conv["energy_tolerance"])))
-        elif test != "petsc":
-            raise ValueError(f"-pimpm_convergence_test {test}: expected petsc or guilkey_weiss")
-
+        if plan.convergence[0] == "guilkey_weiss":
+            self.gw_test = GuilkeyWeissTest(*plan.convergence[1:])
         self.X = self.da.createGlobalVec()
         self.R = self.da.createGlobalVec()
-        self.symmetric = problem.symmetric and not self.matrix_free
-        self.near_null_space = iterative and not self.matrix_free
-        self.on_pattern = problem.assembles_on_pattern and not self.matrix_free
+        self.symmetric = plan.symmetric
+        self.near_null_space = plan.near_null_space
+        self.on_pattern = plan.on_pattern
         # a direct solver factorizes the free dofs only (pimpm.linear.FreeDofsKSP)
         self.free_dofs = None
-        setting = lambda key: db.getString(key) if db.hasName(key) else options.get(key)  # noqa: E731
-        use_free_dofs = (solver_config.get("free_dofs_only", True) and self.on_pattern and problem.coo
-                         and not use_fallback and not self._mf_operator(options)
-                         and setting("ksp_type") == "preonly" and setting("pc_type") in ("lu", "cholesky"))
+        use_fallback, use_free_dofs = plan.fallback, plan.free_dofs
         if self.on_pattern:        # a placeholder until the first step's pattern is known
             self.J = diagonal_matrix(self.da)
         else:
@@ -234,7 +186,7 @@ class NewtonSolver:
             else:
                 self.free_dofs = FreeDofsKSP()
                 ksp.setPythonContext(self.free_dofs)
-        with scoped_options(options):
+        with scoped_options(self.options):
             self.snes.setFromOptions()
             if use_fallback or use_free_dofs:
                 self.snes.getKSP().setUp()
@@ -324,9 +276,8 @@ class NewtonSolver:
         return (f"preset {self.preset}: SNES {self.snes.getType()} (line search {line_search}"
                 f"{operator}), linear {linear}, convergence {test}")
 
-    def _mf_operator(self, options=None):
-        return PETSc.Options().hasName("snes_mf_operator") or "snes_mf_operator" in (
-            self.options if options is None else options)
+    def _mf_operator(self):
+        return self.plan.mf_operator
 
     def linear_ksp(self):
         """The KSP that solves the Newton systems: the fallback's iterative
@@ -383,6 +334,12 @@ class NewtonSolver:
             "thickness_failed": bool(self.grid.comm.allreduce(problem.thickness_failed)),
         }
         return self.X.getArray(readonly=True).copy(), info
+
+
+def command_line_options():
+    """PETSc's options database as {name: value} (no dash): the command
+    line, and whatever a caller has put there."""
+    return {k: ("" if v is None or v is True else str(v)) for k, v in PETSc.Options().getAll().items()}
 
 
 def diagonal_matrix(da):

@@ -1,5 +1,9 @@
 """Solver presets are data (pimpm/presets.py): what each implies is derived
-from its options, and the input schema's names are the presets' own."""
+from its options, the input schema's names are the presets' own, and the
+solver of a run is resolved from the input and the command line by a pure
+function (presets.resolve)."""
+import pytest
+
 from pimpm import presets
 from pimpm.config.schema import SOLVER_PRESETS
 
@@ -17,3 +21,74 @@ def test_pimpm_settings_stay_out_of_the_petsc_options_and_names_are_shared():
     options = presets.petsc_options(presets.PRESETS["matrix-free"])
     assert "pimpm_tangent" not in options and options["pc_type"] == "jacobi"
     assert SOLVER_PRESETS == tuple(presets.PRESETS)
+
+
+# ---------------------------------------------------------------- resolve()
+
+SOLVER = {"preset": "mumps", "fallback": True, "petsc": {}, "free_dofs_only": True,
+          "convergence": {"test": "petsc", "displacement_tolerance": 1e-6, "energy_tolerance": 1e-12}}
+PROBLEM = {"symmetric": True, "dim": 2, "assembles_on_pattern": True, "coo": True}
+
+
+def resolve(command_line=None, problem=None, **solver):
+    return presets.resolve(dict(SOLVER, **solver), command_line or {}, **dict(PROBLEM, **(problem or {})))
+
+
+def test_options_are_defaults_then_preset_then_adjustments_then_yaml():
+    plan = resolve()
+    assert plan.preset == "mumps" and not plan.iterative and not plan.fallback
+    assert plan.options["snes_rtol"] == presets.DEFAULT_SOLVER_OPTIONS["snes_rtol"]
+    # a symmetric tangent: MUMPS's LDL^T; the plane: AMF ordering
+    assert plan.options["pc_type"] == "cholesky" and plan.options["mat_mumps_icntl_7"] == "2"
+    assert resolve(problem={"symmetric": False}).options["pc_type"] == "lu"
+    assert "mat_mumps_icntl_7" not in resolve(problem={"dim": 3}).options
+    # the YAML wins over the preset and the adjustments
+    plan = resolve(petsc={"pc_type": "lu", "snes_rtol": "1e-10"})
+    assert plan.options["pc_type"] == "lu" and plan.options["snes_rtol"] == "1e-10"
+    # preset options win over the defaults
+    assert resolve(preset="cg-gamg").options["ksp_type"] == "cg"
+
+
+def test_the_command_line_chooses_the_preset_and_pimpm_switches():
+    plan = resolve({"pimpm_preset": "gmres-gamg"})
+    assert plan.preset == "gmres-gamg" and plan.iterative and plan.fallback and plan.near_null_space
+    assert plan.options["fallback_pc_type"] == "cholesky"          # the direct fallback, symmetric
+    assert not resolve({"pimpm_preset": "gmres-gamg", "pimpm_fallback": "0"}).fallback
+    assert resolve({"pimpm_preset": "gmres-gamg", "pimpm_fallback": ""}).fallback   # a bare flag is true
+    assert not resolve(preset="gmres-gamg", fallback=False).fallback
+    plan = resolve({"pimpm_preset": "matrix-free"})
+    assert plan.matrix_free and not plan.fallback and not plan.on_pattern and not plan.symmetric
+    assert "pimpm_tangent" not in plan.options
+
+
+def test_the_direct_solver_factorizes_the_free_dofs_unless_something_else_is_asked():
+    assert resolve().free_dofs
+    assert not resolve(free_dofs_only=False).free_dofs
+    assert not resolve({"ksp_type": "gmres"}).free_dofs          # the command line's solver
+    assert not resolve(petsc={"pc_type": "ilu"}).free_dofs
+    assert not resolve({"snes_mf_operator": ""}).free_dofs
+    assert resolve({"snes_mf_operator": ""}).mf_operator
+    assert not resolve(problem={"coo": False}).free_dofs
+    assert not resolve(preset="gmres-gamg").free_dofs             # iterative
+
+
+def test_convergence_test_and_its_tolerances():
+    assert resolve().convergence == ("petsc", None, None)
+    gw = dict(SOLVER["convergence"], test="guilkey_weiss")
+    assert resolve(convergence=gw).convergence == ("guilkey_weiss", 1e-6, 1e-12)
+    plan = resolve({"pimpm_convergence_test": "guilkey_weiss", "pimpm_gw_energy_tol": "1e-9"})
+    assert plan.convergence == ("guilkey_weiss", 1e-6, 1e-9)
+
+
+@pytest.mark.parametrize("command_line, solver, problem, message", [
+    ({"pimpm_preset": "lu"}, {}, {}, "-pimpm_preset lu: expected one of mumps, cg-gamg"),
+    ({"pimpm_fallback": "maybe"}, {}, {}, "-pimpm_fallback maybe: expected true or false"),
+    ({}, {"preset": "cg-gamg"}, {"symmetric": False}, "solver.preset = 'cg-gamg': expected a preset for non-symmetric"),
+    ({"pimpm_preset": "cg-gamg"}, {}, {"symmetric": False}, "-pimpm_preset = 'cg-gamg'"),
+    ({"pimpm_convergence_test": "energy"}, {}, {}, "-pimpm_convergence_test energy: expected petsc or guilkey_weiss"),
+    ({"pimpm_convergence_test": "guilkey_weiss", "pimpm_gw_energy_tol": "small"}, {}, {},
+     "-pimpm_gw_energy_tol small: expected a number"),
+])
+def test_bad_settings_are_named_with_their_value(command_line, solver, problem, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(")):
+        resolve(command_line, problem, **solver)
