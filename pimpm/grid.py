@@ -39,6 +39,7 @@ class Grid:
             tuple(tuple(int(n) for n in r) for r in ownership_ranges),
             comm=petsc_comm)
         self.da.setUp()
+        self._wide = {}          # dofs per node -> (DMDA, local, global vector): sum_columns_to_owned
         lo, hi = self.lower, self.upper
         self.da.setUniformCoordinates(*[v for d in range(self.dim) for v in (lo[d], hi[d])])
 
@@ -125,6 +126,13 @@ class Grid:
                           np.zeros(self.dim) if shift is None else np.asarray(shift, dtype=float), out)
         return out
 
+    def key_descents(self, x, shift=None):
+        """How many positions have a smaller :meth:`cell_keys` key than the
+        one before them (compiled, no keys stored)."""
+        return int(reorder.key_descents(np.ascontiguousarray(x, dtype=float), self.lower, self.spacing,
+                                        self.cells, np.zeros(self.dim) if shift is None else
+                                        np.asarray(shift, dtype=float)))
+
     def owner_of_cells(self, cells):
         """MPI rank owning each cell (n, dim): the owner of the cell's lower node."""
         rank = np.zeros(len(cells), dtype=np.int64)
@@ -204,6 +212,31 @@ class Grid:
         gvec.zeroEntries()
         self.da.localToGlobal(lvec, gvec, addv=PETSc.InsertMode.ADD_VALUES)
         return gvec.getArray().copy()
+
+    def sum_columns_to_owned(self, local_values):
+        """Sum ghosted-local nodal values (n_local_nodes, k) of any width k
+        over all ranks in one exchange (a DMDA of k dofs per node, made once
+        per width); returns this rank's owned values (n_owned_nodes, k), in
+        PETSc's node order. The sums are those of :meth:`sum_to_owned`
+        column by column (the same contributions, added in the same order).
+        Collective."""
+        k = local_values.shape[1]
+        if k not in self._wide:
+            da = self.da.duplicate(dof=k)
+            self._wide[k] = (da, da.createLocalVec(), da.createGlobalVec())
+        da, lvec, gvec = self._wide[k]
+        lvec.getArray()[:] = np.asarray(local_values, dtype=float).reshape(-1)
+        gvec.zeroEntries()
+        da.localToGlobal(lvec, gvec, addv=PETSc.InsertMode.ADD_VALUES)
+        return gvec.getArray().reshape(-1, k).copy()
+
+    def destroy(self):
+        """Free the DMDAs (collective)."""
+        for da, lvec, gvec in self._wide.values():
+            for obj in (lvec, gvec, da):
+                obj.destroy()
+        self._wide = {}
+        self.da.destroy()
 
     def sum_scalar_to_owned(self, local_values):
         """Sum a ghosted-local nodal scalar (n_local_nodes,) over all ranks and

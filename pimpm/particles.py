@@ -61,22 +61,34 @@ def take(a, index, out=None):
     return out
 
 
-def migrate(comm, particle_set, destination):
-    """Send every particle to rank ``destination[p]``.
+def migrate(comm, moves):
+    """Send every particle of each set to its rank: ``moves`` is a list of
+    (particle set, destination rank per particle).
 
     Only the particles that change rank travel: they are packed as float64
     columns (integer fields are exact below 2**53), exchanged with one
-    ``Alltoallv`` and appended to the ones that stay; when no particle
-    changes rank anywhere nothing is packed at all. Collective: every rank
-    must call it."""
-    size, rank = comm.size, comm.rank
-    destination = np.asarray(destination)
-    leaving = destination != rank
-    send_counts = np.bincount(destination[leaving], minlength=size).astype(np.int64)
-    recv_counts = np.empty(size, dtype=np.int64)
+    ``Alltoallv`` per set and appended to the ones that stay; the counts of
+    every set go in one ``Alltoall``, and a set in which no particle changes
+    rank anywhere is not packed at all. Collective: every rank must call it
+    with the same number of sets."""
+    size, rank, n_sets = comm.size, comm.rank, len(moves)
+    send_counts = np.zeros((size, n_sets), dtype=np.int64)     # per destination rank, per set
+    leaving = []
+    for s, (_, destination) in enumerate(moves):
+        destination = np.asarray(destination)
+        leaving.append(destination != rank)
+        send_counts[:, s] = np.bincount(destination[leaving[-1]], minlength=size)
+    recv_counts = np.empty_like(send_counts)
     comm.Alltoall(send_counts, recv_counts)
-    if not comm.allreduce(int(send_counts.sum()) > 0, op=MPI.LOR):
-        return
+    moving = comm.allreduce(send_counts.sum(axis=0), op=MPI.SUM)
+    for s, (particle_set, destination) in enumerate(moves):
+        if moving[s]:
+            _exchange(comm, particle_set, np.asarray(destination), leaving[s],
+                      np.ascontiguousarray(send_counts[:, s]), np.ascontiguousarray(recv_counts[:, s]))
+
+
+def _exchange(comm, particle_set, destination, leaving, send_counts, recv_counts):
+    """Move one set's leaving particles (one ``Alltoallv``). Collective."""
     names = sorted(particle_set.fields)
     arrays = [particle_set.fields[k] for k in names]
     widths = [math.prod(a.shape[1:]) for a in arrays]
@@ -95,15 +107,43 @@ def migrate(comm, particle_set, destination):
     comm.Alltoallv([packed, send_counts * ncol, send_displ, MPI.DOUBLE],
                    [received, recv_counts * ncol, recv_displ, MPI.DOUBLE])
     stay = np.flatnonzero(~leaving)
+    runs = _runs(stay)
     col = 0
     fields = {}
     for name, a, w in zip(names, arrays, widths):
         merged = np.empty((len(stay) + n_new,) + a.shape[1:], dtype=a.dtype)
-        take(a, stay, merged[:len(stay)])
+        if runs is None:
+            take(a, stay, merged[:len(stay)])
+        else:
+            at = 0
+            for start, stop in runs:
+                merged[at:at + stop - start] = a[start:stop]
+                at += stop - start
         merged[len(stay):] = received[:, col:col + w].reshape((n_new,) + a.shape[1:])
         fields[name] = merged
         col += w
     particle_set.fields = fields
+
+
+#: at most this many runs of consecutive particles are copied as slices
+MAX_RUNS = 16
+
+
+def _runs(index):
+    """The sorted ``index`` as [(start, stop)] runs of consecutive integers,
+    or None if there are more than :data:`MAX_RUNS`. The particles that stay
+    on a rank usually form one to six runs (those leaving sit at the ends of
+    the footprint order), and a slice is copied three times as fast as a
+    gather of rows (measured: 12,800 rows of 9 doubles, 0.021 ms against
+    0.068 ms)."""
+    if not len(index):
+        return []
+    breaks = np.flatnonzero(np.diff(index) != 1)
+    if len(breaks) >= MAX_RUNS:
+        return None
+    starts = np.concatenate(([index[0]], index[breaks + 1]))
+    stops = np.concatenate((index[breaks] + 1, [index[-1] + 1]))
+    return list(zip(starts.tolist(), stops.tolist()))
 
 
 def sort_by_footprint(pset, grid, disorder=0.0):
@@ -119,7 +159,7 @@ def sort_by_footprint(pset, grid, disorder=0.0):
     if len(pset):
         # the nearest node of x is the cell of x + h/2 (clipped: the last
         # node's particles join the last cell's, only an ordering)
-        key = grid.cell_keys(pset["x"], 0.5 * grid.spacing if grid.stencil_width > 1 else None)
-        if np.count_nonzero(key[1:] < key[:-1]) <= disorder * len(key):
+        shift = 0.5 * grid.spacing if grid.stencil_width > 1 else None
+        if grid.key_descents(pset["x"], shift) <= disorder * len(pset):
             return
-        pset.take(np.argsort(key, kind="stable"))
+        pset.take(np.argsort(grid.cell_keys(pset["x"], shift), kind="stable"))

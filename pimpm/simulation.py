@@ -212,7 +212,7 @@ class Simulation:
 
     def stable_time_step(self):
         """The explicit CFL step (MPM intro) of the current state. Collective."""
-        return stable_time_step(self.particles, self.material_groups(), self.grid,
+        return stable_time_step(self.particles, self.material_table(), self.grid,
                                 self.config["time"]["cfl"], self.comm)
 
     # ----------------------------------------------------------------- the reset grid
@@ -228,8 +228,9 @@ class Simulation:
         axis-aligned domains, so that the domains keep tiling the body under
         homogeneous deformation), at most half a cell."""
         p = self.particles
-        stretch = np.abs(np.diagonal(p["F"], axis1=1, axis2=2)[:, :self.dim])
-        return np.minimum(p["half_size"] * stretch, 0.5 * self.grid.spacing)
+        out = np.empty_like(p["half_size"])
+        transfer_kernels.gimp_half_sizes(p["half_size"], p["F"], 0.5 * self.grid.spacing, out)
+        return out
 
     def tangent_pattern(self, node_index, active):
         """The couplings of this step's tangent (pimpm.kernels.pattern)."""
@@ -506,7 +507,7 @@ class Simulation:
                          ownership_ranges=ranges, proc_sizes=grid.proc_sizes)
         if self.last_grid is not None:      # the last step's grid fields, for output
             self.last_grid = {k: grid.transfer_owned(v, self.grid) for k, v in self.last_grid.items()}
-        grid.da.destroy()
+        grid.destroy()
         self.migrate()
 
     def rebalance(self):
@@ -524,8 +525,9 @@ class Simulation:
         footprint (while more than the fraction ``disorder`` of them is out of
         order), then check that the global particle count and mass are
         unchanged."""
-        for pset in (self.particles, self.rigid):
-            migrate(self.comm, pset, self.grid.owner_of_positions(pset["x"]))
+        sets = (self.particles, self.rigid)
+        migrate(self.comm, [(pset, self.grid.owner_of_positions(pset["x"])) for pset in sets])
+        for pset in sets:
             sort_by_footprint(pset, self.grid, disorder)
         p = self.particles
         count, rigid_count, mass = self.comm.allreduce(

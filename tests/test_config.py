@@ -80,6 +80,10 @@ def test_base_config_normalizes_with_defaults():
         "weak_node_fraction": 0.05,
     }
     assert cfg["parallel"] == {"balance": True, "rebalance_threshold": 1.1}
+    explicit = base()
+    explicit["time"] = dict(explicit["time"], integrator="explicit")
+    explicit["time"].pop("dt", None)
+    assert validate(explicit)["parallel"]["rebalance_threshold"] == 1.02   # a cheap repartition
     assert cfg["solver"]["free_dofs_only"] is True
     assert cfg["kinematics"] == "plane_strain"
     assert cfg["materials"] == {"rubber": {"model": "neo_hookean", "density": 10.0,

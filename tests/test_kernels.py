@@ -326,6 +326,22 @@ def test_compiled_take_equals_numpy_indexing():
     assert np.array_equal(merged[:n], a[::-1]) and np.all(merged[n:] == -1.0)
 
 
+def test_runs_of_staying_particles_copy_as_slices():
+    """Migration copies the particles that stay as slices when they form few
+    runs of consecutive rows (pimpm.particles._runs), as a gather otherwise:
+    the runs cover the index exactly."""
+    from pimpm.particles import MAX_RUNS, _runs
+    for index in (np.array([0, 1, 2, 5, 6, 9]), np.arange(7, 40), np.array([3]), np.zeros(0, dtype=np.int64),
+                  np.flatnonzero(RNG.random(200) < 0.97)):
+        runs = _runs(index)
+        if runs is None:
+            assert np.count_nonzero(np.diff(index) != 1) >= MAX_RUNS
+            continue
+        covered = np.concatenate([np.arange(a, b) for a, b in runs] or [np.zeros(0, dtype=np.int64)])
+        assert np.array_equal(covered, index) and len(runs) <= MAX_RUNS
+    assert _runs(np.arange(0, 100, 2)) is None
+
+
 def test_a_plane_stress_thickness_that_does_not_converge_is_counted():
     """The thickness Newton diverges for a nearly incompressible neo-Hookean
     point stretched ten times in both in-plane directions: reported (a step

@@ -79,7 +79,7 @@ def validate(raw, source_name=None, base_dir=None):
     time = _validate_time(top.required("time", "a mapping with dt and end_time"), "time", dim,
                           functions)
     solver = _validate_solver(top.optional("solver"), "solver")
-    parallel = _validate_parallel(top.optional("parallel"), "parallel")
+    parallel = _validate_parallel(top.optional("parallel"), "parallel", explicit=time["integrator"] == "explicit")
     output = _validate_output(top.optional("output"), "output", source_name)
 
     config = {"title": title, "dim": dim, "functions": functions, "grid": grid, "kinematics": kin,

@@ -4,16 +4,20 @@ its modified form or update-stress-first) is :mod:`pimpm.steps.explicit`."""
 import numpy as np
 from mpi4py import MPI
 
+from ..kernels.stress import largest_speed_squared
 
-def stable_time_step(particles, material_groups, grid, cfl, comm):
+
+def stable_time_step(particles, table, grid, cfl, comm):
     """CFL limit dt = cfl * h / max_p (c + |v_p|) (MPM intro), with c the
-    dilatational wave speed of each particle's material. Collective."""
+    dilatational wave speed of each particle's material (``table``: the
+    particles' :class:`pimpm.materials.table.MaterialTable`). Collective."""
     h = float(np.min(grid.spacing))
     speed = 0.0
-    speed2 = np.sum(particles["v"] ** 2, axis=1)
-    for material, index in material_groups:
+    largest = np.empty(len(table.groups))
+    largest_speed_squared(np.ascontiguousarray(particles["v"]), table.material_of, largest)
+    for (material, index), speed2 in zip(table.groups, largest):
         if len(index):
-            speed = max(speed, material.wave_speed() + np.sqrt(np.max(speed2[index])))
+            speed = max(speed, material.wave_speed() + np.sqrt(speed2))
     speed = comm.allreduce(speed, op=MPI.MAX)
     return cfl * h / speed
 

@@ -75,3 +75,21 @@ def all_inside(x, lower, upper):
             if not (lower[d] <= x[p, d] <= upper[d]):
                 return False
     return True
+
+
+@jit
+def key_descents(x, lower, spacing, cells, shift):
+    """How many particles have a smaller :func:`cell_keys` key than the one
+    before them (the disorder sort_by_footprint tolerates), without storing
+    the keys."""
+    dim = x.shape[1]
+    descents = 0
+    previous = 0
+    for p in range(x.shape[0]):
+        index = 0
+        for d in range(dim - 1, -1, -1):
+            index = index * cells[d] + _clipped_cell(x[p, d] + shift[d], lower[d], spacing[d], cells[d])
+        if p > 0 and index < previous:
+            descents += 1
+        previous = index
+    return descents

@@ -5,7 +5,8 @@ the energy account, compiled:
   the current volume (MPM introduction eq. 6; the axisymmetric hoop force
   v_p sigma_thth S_ip / r_p), for the explicit step and for HHT's
   Fint(t) on the reset grid;
-* :func:`strain_energy`: sum_p V0_p W(F_p, history_p), the stored energy.
+* :func:`strain_energy`: sum_p V0_p W(F_p, history_p), the stored energy;
+* :func:`largest_speed_squared`: the particle speeds of the explicit CFL step.
 """
 import numpy as np
 
@@ -151,3 +152,18 @@ def _energy(only_model, models, params, material_of, F, h, p, Fp, prm, hp):
     for k in range(hp.shape[0]):
         hp[k] = h[p, k]
     return model_energy(only_model, models[m], prm, Fp, hp)
+
+
+@jit
+def largest_speed_squared(velocity, material_of, out):
+    """out[m] = the largest |v_p|^2 over the particles of material m (-1 if
+    it has none here): the particle speeds of the explicit CFL step."""
+    out[:] = -1.0
+    dim = velocity.shape[1]
+    for p in range(velocity.shape[0]):
+        s = velocity[p, 0] * velocity[p, 0]
+        for d in range(1, dim):
+            s += velocity[p, d] * velocity[p, d]
+        m = material_of[p]
+        if s > out[m]:
+            out[m] = s

@@ -309,3 +309,14 @@ def _target(s, node, mask, code, dim, inward, stride, gstride, ghost_shape, node
         if i1 != i0 + steps * inward[d]:
             return -1
     return t
+
+
+@jit
+def gimp_half_sizes(half_size, F, cap, out):
+    """out[p, d] = min(half_size[p, d] |F[p, d, d]|, cap[d]): the GIMP
+    particle domains convected by the diagonal of F (:meth:`pimpm.simulation.
+    Simulation.particle_half_sizes`); a NaN stays NaN, as with np.minimum."""
+    for p in range(half_size.shape[0]):
+        for d in range(half_size.shape[1]):
+            v = half_size[p, d] * abs(F[p, d, d])
+            out[p, d] = cap[d] if v > cap[d] else v

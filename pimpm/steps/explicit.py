@@ -72,11 +72,12 @@ class ParticleStress:
                                self.S, self.G, self.radius, p["stress"], p["F"], p["volume0"], force)
         return sim.grid.sum_to_owned(force)
 
-    def update(self, v_local, dt, saved):
+    def evaluate(self, v_local, dt):
         """Deform the particles with the ghosted-local grid velocity
-        ``v_local`` over dt and update their stresses; StepFailed on every
-        rank (the fields in ``saved`` restored) if a particle would invert.
-        Collective."""
+        ``v_local`` over dt and update their stresses, kept aside until
+        :meth:`commit`. Returns this rank's numbers of particles that would
+        invert and whose plane-stress thickness did not converge (local: the
+        caller reduces them with its other checks)."""
         sim, p, table = self.sim, self.sim.particles, self.table
         n, dim = len(p), sim.dim
         F_inc, F, sigma = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3))
@@ -87,15 +88,32 @@ class ParticleStress:
             self.active, self.S, self.G, self.radius, p["F"], p["volume0"], table.only_model, table.models,
             table.params, table.material_of, packed, False, False, F_inc, F, sigma, h_out,
             np.empty((0, dim)), np.empty((0,) + (dim,) * 4), np.empty((0, 2 * dim * dim + 1)))
-        inverted, unconverged = sim.comm.allreduce(np.array([inverted, unconverged]))
-        if inverted or unconverged:
-            p.fields.update(saved)
-            why = THICKNESS_FAILURE if unconverged else "a particle inverted"
-            raise StepFailed(f"{why} at step {sim.step_index + 1} (t = {sim.time + dt:.6g}, dt = {dt:.6g})")
+        self.pending = F, sigma, h_out
+        return inverted, unconverged
+
+    def commit(self):
+        """The evaluated deformation, stresses and history become the particles'."""
+        p = self.sim.particles
+        F, sigma, h_out = self.pending
         p["F"], p["stress"] = F, sigma
-        self.history = table.unpack(h_out, self.history)
+        self.history = self.table.unpack(h_out, self.history)
         for name, values in self.history.items():
             p["h_" + name] = values
+
+
+def _check(sim, dt, saved, inverted=0, unconverged=0, outside=False):
+    """StepFailed on every rank (the fields in ``saved`` restored) if, on any
+    rank, a particle would invert, its thickness did not converge or it
+    would leave the grid. One reduction for all three. Collective."""
+    inverted, unconverged, outside = sim.comm.allreduce(np.array([inverted, unconverged, int(outside)]))
+    if not (inverted or unconverged or outside):
+        return
+    sim.particles.fields.update(saved)
+    where = f"at step {sim.step_index + 1} (t = {sim.time + dt:.6g}"
+    if outside:
+        raise StepFailed(f"particles would leave the grid {where}); enlarge grid.lower/upper")
+    why = THICKNESS_FAILURE if unconverged else "a particle inverted"
+    raise StepFailed(f"{why} {where}, dt = {dt:.6g})")
 
 
 def advance(sim, dt):
@@ -107,11 +125,11 @@ def advance(sim, dt):
     with log_stage(sim.stages["P2G"]):
         node_index, S, G = sim.footprint()
         stress = ParticleStress(sim, node_index, S, G)
-        nodal = stress.particle_to_grid()                                 # eq. 2-3, 6
-        mass = grid.sum_scalar_to_owned(nodal[:, 0])
+        nodal = grid.sum_columns_to_owned(stress.particle_to_grid())      # eq. 2-3, 6: one exchange
+        mass = np.repeat(nodal[:, 0], dim)                                 # per dof
         has_mass = mass > sim.mass_floor
         safe_mass = np.where(has_mass, mass, 1.0)
-        velocity = np.where(has_mass, grid.sum_to_owned(nodal[:, 1:1 + dim]) / safe_mass, 0.0)
+        velocity = np.where(has_mass, nodal[:, 1:1 + dim].reshape(-1) / safe_mass, 0.0)
         fext = sim.nodal_external_force(node_index, S, mass, sim.time)      # eq. 4
         sim.begin_terms(dt)
         cons = bc.build_constraints(grid, sim.terms, sim.boundary, mass, dt, sim.mass_floor,
@@ -120,10 +138,11 @@ def advance(sim, dt):
         update = sim.config["time"]["stress_update"]
         saved = {k: p[k] for k in ["F", "stress"] + ["h_" + n for n in sim.history_fields()]}
         if update == "usf":                                   # stress from the velocity at t
-            stress.update(grid.owned_to_local(velocity), dt, saved)
+            _check(sim, dt, saved, *stress.evaluate(grid.owned_to_local(velocity), dt))
+            stress.commit()
             fint = stress.internal_force()
         else:
-            fint = grid.sum_to_owned(nodal[:, 1 + dim:])
+            fint = nodal[:, 1 + dim:].reshape(-1)
     with log_stage(sim.stages["G2P"]):
         net = fext - fint
         for term in sim.terms:                                                   # pimpm.terms
@@ -139,20 +158,20 @@ def advance(sim, dt):
                                                          v_local, dt)             # eq. 9-10
         increments, rigid_moves = sim.rigid_increments(dt)
         new_rigid_x = sim.rigid["x"] + rigid_moves
-        try:
-            sim.check_stays_on_grid(new_x, new_rigid_x, dt)
-        except StepFailed:
-            p.fields.update(saved)
-            raise
+        outside = not (grid.contains(new_x) and grid.contains(new_rigid_x))
+        failures = (0, 0)
         if update == "usl":                       # stress from the new grid velocity
-            stress.update(v_local, dt, saved)
+            failures = stress.evaluate(v_local, dt)
         elif update == "musl":
             # modified USL: the velocity gradient comes from the updated
             # particle momenta mapped back to the grid, which keeps nodes
             # with tiny mass (body edges) from driving huge strain rates
             remapped = np.where(has_mass, grid.sum_to_owned(momentum) / safe_mass, 0.0)
             remapped = np.where(cons.fixed, cons.value / dt, remapped)
-            stress.update(grid.owned_to_local(remapped), dt, saved)
+            failures = stress.evaluate(grid.owned_to_local(remapped), dt)
+        _check(sim, dt, saved, *failures, outside=outside)       # one reduction for the three checks
+        if update != "usf":
+            stress.commit()
         sim.work.add(forces, increments, new_x - p["x"], sim.particle_external_force(sim.time),
                      sim.particle_external_force(sim.time))
         p["v"], p["x"] = new_v, new_x
