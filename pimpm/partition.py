@@ -1,9 +1,13 @@
 """Which rank owns which part of the grid: DMDA ownership ranges chosen from
-where the particles are (issue "every rank busy"), and the imbalance that
-decides when to repartition. Pure functions, plus one collective helper.
+where the particles are (issue "every rank busy"), the imbalance that
+decides when to repartition, and the repartitioned grid. Pure functions,
+plus collective helpers (the Simulation swaps its state onto a new grid:
+:meth:`pimpm.simulation.Simulation.balance_ranks`).
 """
 import numpy as np
 from mpi4py import MPI
+
+from .grid import Grid
 
 
 def balanced_ownership(cell_weights, proc_sizes, min_nodes=1):
@@ -51,3 +55,17 @@ def particle_imbalance(local_count, comm):
     counts = comm.allgather(int(local_count))
     mean = sum(counts) / len(counts)
     return max(counts) / mean if mean > 0 else 1.0
+
+
+def balanced_grid(grid, particle_sets, comm):
+    """A grid like ``grid`` whose ownership ranges give every rank about the
+    same number of particles of ``particle_sets`` (the particle work of a
+    step dominates), or None if the balanced ranges are the ones it has.
+    Collective."""
+    weights = cell_layer_weights(grid, particle_sets, comm)
+    ranges = balanced_ownership(weights, grid.proc_sizes, min_nodes=max(1, grid.stencil_width))
+    current = [np.asarray(r) for r in grid.da.getOwnershipRanges()]
+    if all(np.array_equal(a, b) for a, b in zip(ranges, current)):
+        return None
+    return Grid(comm, grid.lower, grid.upper, grid.cells, stencil_width=grid.stencil_width,
+                ownership_ranges=ranges, proc_sizes=grid.proc_sizes)

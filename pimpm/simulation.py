@@ -1,6 +1,6 @@
-"""The simulation: its state (grid, particles, bodies, time) and one step
-of the implicit MPM of Guilkey & Weiss (2003), section 3.3, whose steps
-1-8 are marked in :meth:`Simulation.advance`. The swappable pieces are
+"""The simulation: its state (grid, particles, bodies, time) and its
+set-up; its steps are :mod:`pimpm.steps` (the implicit step of Guilkey &
+Weiss 2003, section 3.3, and the explicit step). The swappable pieces are
 chosen by lookup from the input: the time integrator
 (:mod:`pimpm.integrators`), the kinematics (:mod:`pimpm.kinematics`), the
 materials (:mod:`pimpm.materials`) and the shape functions
@@ -12,25 +12,22 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import bc, energy, faults, resources, weak_nodes
-from .errors import THICKNESS_FAILURE, SetupError, StepFailed
+from . import energy, faults, resources
+from .errors import SetupError, StepFailed
 from .grid import Grid
-from .implicit import StepProblem, StepState, TangentPattern, constraint_scale, residual_scale
-from .implicit.momentum import group_by_node_set
+from .implicit import StepProblem, TangentPattern, residual_scale
 from .integrators import make_integrator
 from .integrators.explicit import stable_time_step
 from .functions import lookup, make_functions
 from .kernels import pattern as kernel_pattern
-from .kernels import stress as stress_kernels
 from .kernels import transfer as transfer_kernels
 from .kinematics import make_kinematics
 from .materials import make_material
-from .materials import tensors
 from .materials.table import MaterialTable
 from .loads import displacement as load_displacement
 from .loads import make_loads, particle_forces
 from .options import with_command_line
-from .partition import balanced_ownership, cell_layer_weights, particle_imbalance
+from .partition import balanced_grid, particle_imbalance
 from .particles import ParticleSet, migrate, sort_by_footprint
 from .seeding import overlapping_bodies, particles_per_body, seed_bodies
 from .shape import make_shape
@@ -38,7 +35,8 @@ from .solver import NewtonSolver, diagnose_solver_options
 from .stages import log_stage, log_stages
 from .terms import BondedRigidBody, StepContext, make_terms
 from .steps import explicit as explicit_step
-from .transfer import grid_to_particle, particle_to_grid
+from .steps import implicit as implicit_step
+from .transfer import particle_to_grid
 
 __all__ = ["Simulation", "SetupError", "StepFailed"]
 
@@ -307,151 +305,19 @@ class Simulation:
         return increments, moves
 
     # ----------------------------------------------------------------- one step
-    def extend_weak_nodes(self, node_index, S, G, dt):
-        """Fold the free nodes the particles barely reach out of this step's
-        footprint (pimpm.weak_nodes; in place): quasi-static steps, where
-        no inertia holds such a node. Collective."""
-        self.weak_pairs = 0
-        if self.weak_fraction <= 0.0 or self.shape.nodes_per_axis != 3 \
-                or self.integrator.name != "quasi_static":
-            return
-        p, grid = self.particles, self.grid
-        area = p["volume0"] * np.linalg.det(p["F"][:, :self.dim, :self.dim])
-        if self.kinematics.name == "axisymmetric":                 # the in-plane area
-            area = area / (2.0 * np.pi * p["x0"][:, 0])
-        support = weak_nodes.support_fraction(grid, node_index, S, area)
-        prescribed = np.zeros(grid.n_owned_nodes * self.dim, dtype=bool)
-        faces, _ = bc.face_constraints(grid, self.boundary, self.time, dt, self.functions)
-        prescribed[faces] = True
-        for term in self.terms:
-            dofs = term.prescribed()
-            if dofs is not None:
-                prescribed |= dofs[0]
-        nodes = weak_nodes.WeakNodes(grid, support, prescribed, self.weak_fraction)
-        self.weak_pairs = weak_nodes.extend(self.shape, grid, node_index, S, G, nodes)
-
-    def prepare_step(self, dt):
-        """Steps 1-2: P2G and the Newton state on the reset grid."""
-        p, grid = self.particles, self.grid
-        node_index, S, G = self.footprint()
-        self.begin_terms(dt)
-        self.extend_weak_nodes(node_index, S, G, dt)
-        mass, velocity, acceleration, fext = self.nodal_state(node_index, S, self.time + dt)
-        # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
-        weight = np.empty(grid.n_local_nodes)
-        transfer_kernels.gradient_weight(node_index, G, grid.spacing, p["mass"], weight)
-        stiffness_weight = grid.sum_scalar_to_owned(weight)
-        cons = bc.build_constraints(grid, self.terms, self.boundary, mass, dt, self.mass_floor,
-                                    stiffness_weight, self.time, self.functions)
-        materials = self.material_table()
-        groups = materials.groups
-        history = self.particle_history()
-        active = kernel_pattern.active_entries(S, G)
-        state = StepState(
-            dt=dt, integrator=self.integrator, kinematics=self.kinematics,
-            node_index=node_index, S=S, G=G,
-            F_n=p["F"], volume_n=p["volume0"] * tensors.det(p["F"]),
-            material_groups=groups, materials=materials, history_packed=materials.pack(history),
-            active=active, pattern=self.tangent_pattern(node_index, active),
-            mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
-            history=history, radius=self.kinematics.radius(p["x"]),
-            particle_mass=p["mass"], projection_floor=1e4 * self.mass_floor,
-            fixed=cons.fixed, fixed_value=cons.value,
-            constraint_scale=constraint_scale(self.materials, grid, self.integrator, dt))
-        if self.config["time"]["formulation"] == "momentum":    # the projection's blocks
-            order, starts = group_by_node_set(node_index, grid.n_local_nodes)
-            state.group_order, state.group_starts = order, starts
-            state.group_nodes = node_index[order][starts]
-        if self.integrator.needs_previous_force:     # HHT: Fint(t) - Fext(t) on the reset grid
-            fext_now = self.nodal_external_force(node_index, S, mass, self.time)
-            force = np.empty((grid.n_local_nodes, self.dim))
-            radius = state.radius if state.radius is not None else np.zeros(0)
-            stress_kernels.current_internal_force(self.kinematics.kernel_code, tuple(range(self.dim)),
-                                                  tuple(range(S.shape[1])), node_index, S, G, radius,
-                                                  p["stress"], p["F"], p["volume0"], force)
-            state.previous_force = grid.sum_to_owned(force) - fext_now
-        return state, cons
-
-    def initial_guess(self, state):
-        """G&W step 2: the integrator's predictor, or u = 0 if that would
-        invert a particle; prescribed values on prescribed dofs."""
-        guess = np.where(state.fixed, state.fixed_value, state.predictor())
-        if self.problem.inverts(state, guess):
-            guess = np.where(state.fixed, state.fixed_value, 0.0)
-        return guess
-
     def advance(self, dt):
-        """One implicit step (G&W section 3.3), or one explicit step. Returns
-        a dict of step data. Raises StepFailed, leaving the particles as they were."""
+        """One step of the run's kind: implicit (:mod:`pimpm.steps.implicit`,
+        G&W section 3.3) or explicit (:mod:`pimpm.steps.explicit`), after a
+        repartition if the ranks' particle counts have drifted apart.
+        Returns a dict of step data. Raises StepFailed, leaving the
+        particles as they were."""
         faults.checkpoint("step", self.comm.rank, self.step_index + 1)
         self.step_imbalance = self.particle_imbalance()
         if self.balance and self.step_imbalance > self.rebalance_threshold:
             with log_stage(self.stages["Migration"]):
                 self.rebalance()
-        if self.integrator.explicit:
-            return explicit_step.advance(self, dt)
-        t0 = wallclock.perf_counter()
-        with log_stage(self.stages["P2G"]):
-            state, cons = self.prepare_step(dt)                   # steps 1-2
-        u, info = self.solver.solve(state, self.initial_guess(state), self.step_index + 1)   # steps 3-6
-        if not info["converged"]:
-            why = (THICKNESS_FAILURE if info["thickness_failed"] else
-                   "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"])
-            raise StepFailed(f"Newton did not converge at step {self.step_index + 1} "
-                             f"(t = {self.time + dt:.6g}, dt = {dt:.6g}): {why} after "
-                             f"{info['newton_iterations']} iterations")
-        with log_stage(self.stages["G2P"]):
-            forces, v_new, a_new = self.update_particles(state, cons, u, dt)   # step 7
-        with log_stage(self.stages["Migration"]):
-            self.migrate()                                        # step 8
-        history = info["residual_history"]
-        return self.finish_step(dt, t0, forces, {"mass": state.mass, "velocity": v_new,
-                                                 "acceleration": a_new, "displacement_increment": u},
-                                newton_iterations=info["newton_iterations"],
-                                linear_iterations=info["linear_iterations"],
-                                backtracks=info["backtracks"],
-                                linear_fallbacks=info["linear_fallbacks"],
-                                residual_initial=float(history[0]) if len(history) else 0.0,
-                                residual_final=float(history[-1]) if len(history) else 0.0,
-                                residual_history=history)
-
-    def update_particles(self, state, cons, u, dt):
-        """G&W step 7: reactions, a_g(t+dt) from eq. 16, and the particle
-        update. Raises StepFailed (particles untouched) if a particle would
-        leave the grid or move farther than the Lagrangian limit."""
-        grid, p = self.grid, self.particles
-        u_local = grid.owned_to_local(u)
-        forces = cons.reactions(self.problem.unconstrained_residual(u, u_local), self.comm, self.dim)
-        # converged state (kinematics and stress of the residual just evaluated),
-        # a_g(t+dt) from eq. 16, interpolate to particles
-        converged = state.residual_evaluation
-        F, sigma = converged.F, converged.sigma
-        v_new, a_new = state.grid_kinematics(u)
-        a_local = grid.owned_to_local(a_new)
-        u_p = grid_to_particle(state.node_index, state.S, u_local)
-        a_p = grid_to_particle(state.node_index, state.S, a_local)
-        new_x = p["x"] + u_p
-        increments, rigid_moves = self.rigid_increments(dt)
-        self.check_stays_on_grid(new_x, self.rigid["x"] + rigid_moves, dt)
-        limit = self.config["time"]["max_particle_displacement"]
-        if limit is not None:
-            moved = np.max(np.abs(u_p) / grid.spacing) if len(u_p) else 0.0
-            moved = self.comm.allreduce(float(moved), op=MPI.MAX)
-            if moved > limit:
-                raise StepFailed(f"a particle would move {moved:.3g} cells at step "
-                                 f"{self.step_index + 1} (t = {self.time + dt:.6g}, dt = {dt:.6g}); "
-                                 f"time.max_particle_displacement is {limit:g}")
-        self.work.add(forces, increments, u_p, self.particle_external_force(self.time),
-                      self.particle_external_force(self.time + dt))
-        p["x"] = new_x
-        self.integrator.update_particles(p, u_p, a_p, dt)        # G&W step 7
-        p["F"] = F
-        p["stress"] = sigma
-        committed = state.committed_history(converged.history)
-        for name, values in committed.items():                   # commit the history
-            p["h_" + name] = values
-        self.rigid["x"] = self.rigid["x"] + rigid_moves
-        return forces, v_new, a_new
+        step = explicit_step if self.integrator.explicit else implicit_step
+        return step.advance(self, dt)
 
     def check_stays_on_grid(self, new_x, new_rigid_x, dt):
         """StepFailed on every rank if a particle would leave the grid. Collective."""
@@ -492,22 +358,18 @@ class Simulation:
         return particle_imbalance(len(self.particles), self.comm)
 
     def balance_ranks(self):
-        """Choose the DMDA's ownership ranges from where the particles are, so
-        that every rank holds about the same number (the particle work of a
-        Newton iteration dominates), and move the particles to their new
-        owners. Collective; only between steps (the grid holds no state then)."""
-        grid = self.grid
-        weights = cell_layer_weights(grid, (self.particles, self.rigid), self.comm)
-        ranges = balanced_ownership(weights, grid.proc_sizes, min_nodes=max(1, grid.stencil_width))
-        current = [np.asarray(r) for r in grid.da.getOwnershipRanges()]
-        if all(np.array_equal(a, b) for a, b in zip(ranges, current)):
+        """Move the run onto a grid whose ownership ranges balance the
+        particles (:func:`pimpm.partition.balanced_grid`), with the last
+        step's grid fields and the particles. Collective; only between steps
+        (the grid holds no state then)."""
+        old = self.grid
+        new = balanced_grid(old, (self.particles, self.rigid), self.comm)
+        if new is None:
             return
-        g = self.config["grid"]
-        self.grid = Grid(self.comm, g["lower"], g["upper"], g["cells"], stencil_width=grid.stencil_width,
-                         ownership_ranges=ranges, proc_sizes=grid.proc_sizes)
+        self.grid = new
         if self.last_grid is not None:      # the last step's grid fields, for output
-            self.last_grid = {k: grid.transfer_owned(v, self.grid) for k, v in self.last_grid.items()}
-        grid.destroy()
+            self.last_grid = {k: old.transfer_owned(v, new) for k, v in self.last_grid.items()}
+        old.destroy()
         self.migrate()
 
     def rebalance(self):

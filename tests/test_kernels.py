@@ -23,6 +23,7 @@ from pimpm.config import validate  # noqa: E402
 from pimpm.implicit.problem import ParticleEvaluation  # noqa: E402
 from pimpm.kernels import material_point as mp  # noqa: E402
 from pimpm.kernels import particle_step  # noqa: E402
+from pimpm.steps import implicit as implicit_step  # noqa: E402
 from pimpm.kinematics import PlaneStress  # noqa: E402
 from pimpm.materials import MODELS as REGISTRY  # noqa: E402
 from pimpm.materials.table import MaterialTable  # noqa: E402
@@ -137,7 +138,7 @@ def small_simulation(kinematics, shape, model, three_d=False):
         raw.pop("kinematics")
     sim = Simulation(validate(raw), MPI.COMM_SELF)
     sim.advance(0.01)
-    state, _ = sim.prepare_step(0.01)
+    state, _ = implicit_step.prepare(sim, 0.01)
     return sim, state
 
 
@@ -234,7 +235,7 @@ def test_a_table_of_several_models_dispatches_each_particle_to_its_own():
            "time": {"integrator": "newmark", "dt": 0.01, "end_time": 1.0}}
     sim = Simulation(validate(raw), MPI.COMM_SELF)
     sim.advance(0.01)
-    st, _ = sim.prepare_step(0.01)
+    st, _ = implicit_step.prepare(sim, 0.01)
     assert st.materials.only_model == mp.model_tag(mp.MIXED) == ()
     u = 0.05 * RNG.standard_normal((sim.grid.n_local_nodes, 2))
     grad = RK.gradient(st.node_index, st.G, u)

@@ -17,6 +17,7 @@ from pimpm.config import validate  # noqa: E402
 from pimpm.implicit import StepProblem  # noqa: E402
 from pimpm.simulation import Simulation  # noqa: E402
 from pimpm.solver import NewtonSolver  # noqa: E402
+from pimpm.steps import implicit as implicit_step  # noqa: E402
 from pimpm.terms import BondedRigidBody, NodalTerm  # noqa: E402
 
 
@@ -60,7 +61,7 @@ def test_a_terms_force_and_derivative_join_the_tangent_assembled_and_matrix_free
     spring = CubicSpring(spring_nodes(sim), 50.0, np.array([0.05, 0.1]), sim.dim)
     sim.terms.append(spring)
     sim.problem.terms.append(spring)
-    state, _ = sim.prepare_step(1.0)
+    state, _ = implicit_step.prepare(sim, 1.0)
     solver, problem = sim.solver, sim.problem
     solver.prepare(state)
     problem.begin(state)

@@ -16,6 +16,7 @@ from mpi4py import MPI
 
 from pimpm.config import validate
 from pimpm.simulation import Simulation
+from pimpm.steps import implicit as implicit_step
 
 integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
@@ -97,7 +98,7 @@ if plastic:   # small-strain J2 with a low yield stress: particles yield in the 
 sim = Simulation(validate(raw), comm)
 sim.advance(0.01)
 sim.advance(0.01)
-state, _ = sim.prepare_step(0.01)
+state, _ = implicit_step.prepare(sim, 0.01)
 weak_pairs = comm.allreduce(int(sim.weak_pairs))
 if plastic:
     n_plastic = comm.allreduce(int(np.sum(sim.particles["h_eq_plastic_strain"] > 0)))
