@@ -11,7 +11,7 @@ Kaul 3.2.7) is also run quasi-static at its input's step. Prints a table (dt, st
 iterations, wall time, cost ratio = implicit wall time / explicit wall time)
 and writes JSON; also draws the colliding-disk energy histories.
 
-    python scripts/bench_costs.py [--ranks 1] [--json docs/bench_costs.json]
+    python scripts/bench_costs.py [--ranks 1] [--json docs/data/bench_costs.json]
                                   [--figure docs/figures/colliding_disks_energy.png]
 """
 import argparse
@@ -97,7 +97,7 @@ def run(config, ranks, workdir, name):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--ranks", type=int, default=1)
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "bench_costs.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "bench_costs.json"))
     ap.add_argument("--figure", default=os.path.join(ROOT, "docs", "figures", "colliding_disks_energy.png"))
     ap.add_argument("--problems", nargs="+", default=["bar", "disks", "billet", "upsetting"])
     ap.add_argument("--shape", choices=["linear", "gimp", "bspline"], default="linear",

@@ -27,7 +27,7 @@ an empty kernel cache (cold: numba compiles) and again (warm). Writes JSON.
     python scripts/bench_parallel.py [--baseline b88024b] [--repeats 3]
         [--cases billet-linear billet-gimp billet-quarter [billet-quarter-linear] block-3d]
         [--baseline-cases billet-linear billet-gimp] [--ranks 1 2]
-        [--imbalance-ranks 3] [--json docs/bench_parallel.json]
+        [--imbalance-ranks 3] [--json docs/data/bench_parallel.json]
 """
 import argparse
 import json
@@ -166,7 +166,7 @@ def main():
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--imbalance-ranks", type=int, nargs="*", default=[3],
                     help="extra rank counts run once (current tree) for billet-quarter's imbalance")
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "bench_parallel.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "bench_parallel.json"))
     ap.add_argument("--current", default=None,
                     help="a commit to measure instead of this working tree (from its own worktree)")
     ap.add_argument("--no-start-up", action="store_true", help="skip the cold/warm start-up runs")

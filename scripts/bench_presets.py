@@ -8,7 +8,7 @@ iterations, direct fallbacks, step cuts, the share of the Solve stage, and
 the final platen force against the MUMPS run's.
 
     python scripts/bench_presets.py [--presets mumps cg-gamg gmres-gamg jfnk matrix-free]
-        [--ranks 2] [--repeats 1] [--json docs/bench_presets.json]
+        [--ranks 2] [--repeats 1] [--json docs/data/bench_presets.json]
 """
 import argparse
 import json
@@ -60,7 +60,7 @@ def main():
     ap.add_argument("--presets", nargs="+", default=["mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free"])
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--repeats", type=int, default=1)
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "bench_presets.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "bench_presets.json"))
     args = ap.parse_args()
     runs = {p: [] for p in args.presets}
     for _ in range(args.repeats):

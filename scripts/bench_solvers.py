@@ -5,7 +5,7 @@ unknowns), on 1 and 2 MPI ranks, all in one run so the ratios mean
 something. Prints a table and writes JSON.
 
     python scripts/bench_solvers.py [--steps 2] [--ranks 1 2] [--presets ...]
-                                    [--levels 0 1 2] [--json docs/bench_solvers.json]
+                                    [--levels 0 1 2] [--json docs/data/bench_solvers.json]
 
 Each case runs ``mpiexec -n R python -m pimpm case.yaml -pimpm_preset P
 -log_view -memory_view`` in a scratch directory and reads history.csv (Newton
@@ -171,7 +171,7 @@ def main():
     ap.add_argument("--problems", nargs="+", default=["billet-2d", "block-3d"])
     ap.add_argument("--all", action="store_true", help="also run matrix-free at the finest level")
     ap.add_argument("--table", metavar="JSON", help="only print the table of an earlier run")
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "bench_solvers.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "bench_solvers.json"))
     ap.add_argument("--shape", choices=["linear", "gimp", "bspline"], default=SHAPE_FUNCTIONS,
                     help="grid.shape_functions of every case (default: linear)")
     args = ap.parse_args()

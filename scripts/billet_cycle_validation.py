@@ -12,7 +12,7 @@ several step sizes (and, with --cells, another grid). For each run:
   work done at the deepest point, and the strain energy left at the end.
 
     python scripts/billet_cycle_validation.py [--dts 0.01 0.005 0.0025]
-        [--cells 80 42] [--ranks 2] [--json docs/billet_cycle_validation.json]
+        [--cells 80 42] [--ranks 2] [--json docs/data/billet_cycle_validation.json]
 """
 import argparse
 import json
@@ -68,7 +68,7 @@ def main():
     ap.add_argument("--dts", type=float, nargs="+", default=[0.01, 0.005, 0.0025])
     ap.add_argument("--cells", type=int, nargs=2, default=None)
     ap.add_argument("--ranks", type=int, default=2)
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "billet_cycle_validation.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "billet_cycle_validation.json"))
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as workdir:

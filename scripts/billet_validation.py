@@ -97,7 +97,7 @@ def main():
     ap.add_argument("--run", nargs="+", choices=list(CASES), default=list(CASES),
                     help="cases to run (the others are read from --workdir)")
     ap.add_argument("--workdir", default=os.path.join(ROOT, "runs"))
-    ap.add_argument("--out", default=os.path.join(ROOT, "docs"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "docs", "data"))
     args, extra = ap.parse_known_args()
     os.makedirs(args.workdir, exist_ok=True)
     summary = {}

@@ -16,7 +16,7 @@ steps do not land on integer k after step cuts, so the ratio to the
 reference is interpolated in k between the steps.
 
     python scripts/cantilever_validation.py [--depth-cells 4 8 16] [--ranks 2]
-        [--json docs/cantilever_validation.json]
+        [--json docs/data/cantilever_validation.json]
 """
 import argparse
 import json
@@ -129,7 +129,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--depth-cells", type=int, nargs="+", default=[4, 8, 16])
     ap.add_argument("--ranks", type=int, default=2)
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "cantilever_validation.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "cantilever_validation.json"))
     args = ap.parse_args()
     result = {"small": [], "large": []}
     with tempfile.TemporaryDirectory() as workdir:

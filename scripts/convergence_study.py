@@ -15,7 +15,7 @@ compression, the differences between successive refinements, the observed
 levels exist, and the drift of the stored J = det F from the J of the
 particle lattice per step (pimpm.measures.lattice_j_drift).
 
-Writes docs/convergence_study.json (or --json PATH), merged with what the
+Writes docs/data/convergence_study.json (or --json PATH), merged with what the
 file already holds (entries for other shape functions or studies are kept).
 
     mpiexec -n 2 python scripts/convergence_study.py [--column] [--billet]
@@ -150,7 +150,7 @@ def main():
     ap.add_argument("--billet", action="store_true")
     ap.add_argument("--shapes", nargs="+", default=["linear", "gimp", "bspline"])
     ap.add_argument("--sizes", type=float, nargs="+", default=[1.0, 0.5, 0.25])
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "convergence_study.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "convergence_study.json"))
     args = ap.parse_args()
     if not (args.column or args.billet):
         args.column = args.billet = True

@@ -2,7 +2,7 @@
 
 Runs a compute-bound and a memory-bound numba loop in one process, then in
 two processes started together, and prints the median times (and writes
-them to docs/core_check.json). On independent cores the two-process times
+them to docs/data/core_check.json). On independent cores the two-process times
 equal the one-process ones; on hyperthreads of one core (or a shared
 memory bus) they grow. docs/PERFORMANCE.md uses it to tell a solver that
 does not scale from a machine that cannot.
@@ -72,7 +72,7 @@ def main():
     for label, rows in result.items():
         for r in rows:
             print(f"| {label} | {r['compute_ms']:.1f} | {r['stream_ms']:.1f} |")
-    path = os.path.join(ROOT, "docs", "core_check.json")
+    path = os.path.join(ROOT, "docs", "data", "core_check.json")
     with open(path, "w") as f:
         json.dump(result, f, indent=1)
     print(f"\nwritten: {path}")

@@ -85,7 +85,7 @@ def study(shape, ppc=4, steps_per_cell=2):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "linear_j_cause.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "linear_j_cause.json"))
     args = ap.parse_args()
     rows = [study(s) for s in ("linear", "gimp", "bspline")] + [study("linear", ppc) for ppc in (2, 8)]
     print("| shape functions | particles per cell | fill of the cells (quartiles) | dJ - 1, emptiest quarter | "

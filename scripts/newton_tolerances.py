@@ -15,7 +15,7 @@ crushes the corner, and which steps are cut changes with round-off, so
 its answer moves by percents whatever the tolerance.)
 
     mpiexec -n 2 python scripts/newton_tolerances.py [--problems billet disks upsetting]
-        [--json docs/newton_tolerances.json]
+        [--json docs/data/newton_tolerances.json]
 """
 import argparse
 import json
@@ -92,7 +92,7 @@ def run(name, rtol, atol):
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--problems", nargs="+", default=["billet", "disks", "upsetting"])
-    parser.add_argument("--json", default=os.path.join(ROOT, "docs", "newton_tolerances.json"))
+    parser.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "newton_tolerances.json"))
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
     out = {"reference": {"snes_rtol": REFERENCE[0], "snes_atol": REFERENCE[1]}, "ranks": comm.size,

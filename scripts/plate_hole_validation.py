@@ -11,7 +11,7 @@ extrapolated from the particles next to it (pimpm.measures.hole_peak_stress),
 over the applied traction; Heywood: Kt = 3.14 for d/w = 0.2.
 
     python scripts/plate_hole_validation.py [--ranks 2] [--cells-per-radius 10 20]
-        [--fine-mesh /tmp/fine.msh] [--json docs/plate_hole_validation.json]
+        [--fine-mesh /tmp/fine.msh] [--json docs/data/plate_hole_validation.json]
 """
 import argparse
 import json
@@ -61,7 +61,7 @@ def main():
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--cells-per-radius", type=int, nargs="+", default=[10, 20])
     ap.add_argument("--fine-mesh", help="a finer mesh for one more run at 40 cells per radius")
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "plate_hole_validation.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "plate_hole_validation.json"))
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as workdir:

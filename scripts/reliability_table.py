@@ -5,7 +5,7 @@ and signals (to one rank, to mpiexec, twice). For each: the exit status of
 mpiexec (or python), the seconds until every process was gone, the
 ``pimpm: error``/``interrupted`` line, and whether anything was written.
 
-    python scripts/reliability_table.py [--json docs/reliability.json]
+    python scripts/reliability_table.py [--json docs/data/reliability.json]
 """
 import argparse
 import json
@@ -217,7 +217,7 @@ def signals():
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "reliability.json"))
+    ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "reliability.json"))
     args = ap.parse_args()
     result = {"hostile_inputs": hostile(), "signals": signals()}
     print("\n| input | ranks | exit status | seconds | message | written |")

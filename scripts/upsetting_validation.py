@@ -3,7 +3,7 @@
 finite-strain J2, quasi-static) at 2, 1 and 0.5 mm cells (default) on 2 ranks, the
 platen moving half a cell per step to 60% reduction. Prints load-deflection
 data, the radius at mid-height and Newton iterations per step; writes
-docs/validation_upsetting.json and docs/figures/upsetting.png.
+docs/data/validation_upsetting.json and docs/figures/upsetting.png.
 
     python scripts/upsetting_validation.py [--ranks 2] [--sizes 2 1 0.5]
         [--shape linear|gimp|bspline] [--no-docs]
@@ -97,7 +97,7 @@ def main():
               f"{r['wall_s']:.1f} |")
     if args.no_docs or not results:
         return
-    with open(os.path.join(ROOT, "docs", "validation_upsetting.json"), "w") as f:
+    with open(os.path.join(ROOT, "docs", "data", "validation_upsetting.json"), "w") as f:
         json.dump([{k: v for k, v in r.items() if k not in ("x", "eps_p")} for r in results], f, indent=1)
     import matplotlib
     matplotlib.use("Agg")
