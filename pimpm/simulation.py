@@ -16,6 +16,7 @@ from . import energy, faults, resources
 from .errors import SetupError, StepFailed
 from .grid import Grid
 from .implicit import StepProblem, TangentPattern, residual_scale
+from .implicit.formulation import make_formulation
 from .integrators import make_integrator
 from .integrators.explicit import stable_time_step
 from .functions import lookup, make_functions
@@ -149,7 +150,7 @@ class Simulation:
         """The step problem and its Newton solver on the current grid."""
         config = self.config
         self.problem = StepProblem(self.grid, residual_scale(config, self.materials),
-                                   momentum=config["time"]["formulation"] == "momentum",
+                                   formulation=make_formulation(config["time"]["formulation"]),
                                    stages=self.stages,
                                    nonsymmetric_materials=[m.name for m in self.materials
                                                            if not m.symmetric_tangent],

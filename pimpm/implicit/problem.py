@@ -19,7 +19,7 @@ from .. import coo, faults, interrupt
 from ..kernels import particle_step
 from ..materials.model import youngs_modulus
 from ..stages import log_stage
-from .momentum import assemble_projection, project_displacement
+from .formulation import VelocityFormulation
 from .shell import TangentShell
 
 
@@ -87,21 +87,22 @@ _NO_RADIUS = np.zeros(0)
 
 class StepProblem:
     """Residual and tangent of the implicit step on a grid, for the state of
-    the step being solved (:attr:`state`, a StepState). ``momentum``:
-    Sulsky & Kaul's momentum formulation (the tangent is K R, not symmetric).
-    ``nonsymmetric_materials``: names of the material models whose tangent
-    is not symmetric.
+    the step being solved (:attr:`state`, a StepState). ``formulation``:
+    what deforms the particles (:mod:`pimpm.implicit.formulation`; Guilkey &
+    Weiss's velocity formulation if None). ``nonsymmetric_materials``: names
+    of the material models whose tangent is not symmetric.
     """
 
-    def __init__(self, grid, residual_scale, momentum=False, stages=None, nonsymmetric_materials=(), terms=()):
+    def __init__(self, grid, residual_scale, formulation=None, stages=None, nonsymmetric_materials=(),
+                 terms=()):
         self.grid = grid
         #: the run's nodal terms (pimpm.terms): their forces and derivatives join the particles'
         self.terms = list(terms)
-        self.momentum = momentum
+        self.formulation = formulation or VelocityFormulation()
+        materials = (f"material model {', '.join(sorted(set(nonsymmetric_materials)))} (its "
+                     "consistent tangent is not symmetric)" if nonsymmetric_materials else "")
         #: why the assembled tangent is not symmetric ("" if it is)
-        self.asymmetry = ("time.formulation: momentum (its tangent K R is not symmetric)" if momentum else
-                          f"material model {', '.join(sorted(set(nonsymmetric_materials)))} (its "
-                          "consistent tangent is not symmetric)" if nonsymmetric_materials else "")
+        self.asymmetry = self.formulation.asymmetry or materials
         #: is the assembled tangent symmetric? (then a symmetric factorization applies)
         self.symmetric = not self.asymmetry
         #: has every material's stiffness density major symmetry? (each particle's
@@ -116,9 +117,8 @@ class StepProblem:
         self.residual_evaluations = 0
         self.diag = grid.da.createGlobalVec()
         self.row_offset = self.diag.getOwnershipRange()[0]
-        self.K = self.projection = None
         #: the tangent on the step's pattern is assembled through COO (pimpm.coo)
-        self.coo = coo.available() and not momentum
+        self.coo = coo.available() and self.formulation.assembles_on_pattern
         #: the step's tangent on the free dofs only (:meth:`create_free_jacobian`), or None
         self.free_matrix = None
 
@@ -131,13 +131,14 @@ class StepProblem:
         self.residual_evaluations = 0
         if state.evaluation is None:
             state.evaluation = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim)
+        self.formulation.begin_step(state, self.grid)
 
     @property
     def assembles_on_pattern(self):
         """Is the tangent a matrix on the step's own nonzero pattern (the
         velocity formulation, assembled), to be made anew when the pattern
         changes? (The momentum formulation's K R keeps the DMDA pattern.)"""
-        return not self.momentum
+        return self.formulation.assembles_on_pattern
 
     def create_jacobian(self, matrix_free, pattern=None):
         """The matrix SNES fills through :meth:`form_jacobian`: a shell whose
@@ -155,13 +156,8 @@ class StepProblem:
                                          comm=da.getComm())
             J.setUp()
             return J
-        if self.momentum:
-            self.K = da.createMat()
-            self.K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
-            self.projection = da.createMat()
-            self.projection.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
-            self.projection.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
-            return self.K.matMult(self.projection)
+        if not self.formulation.assembles_on_pattern:
+            return self.formulation.create_matrix(da)
         return pattern_matrix(self.grid, pattern, self.coo)
 
     def create_free_jacobian(self, pattern, free):
@@ -196,9 +192,8 @@ class StepProblem:
     def destroy(self):
         if self.free_matrix is not None:
             self.free_matrix.destroy()
-        for obj in (self.diag, self.K, self.projection):
-            if obj is not None:
-                obj.destroy()
+        self.formulation.destroy()
+        self.diag.destroy()
 
     def _stage(self, name):
         return log_stage(self.stages.get(name))
@@ -207,13 +202,7 @@ class StepProblem:
     def kinematic_displacement(self, u_owned, u_local):
         """The ghosted-local displacement that deforms the particles: u itself
         (velocity formulation) or its projection R u (momentum formulation)."""
-        if not self.momentum:
-            return u_local
-        st = self.state
-        if st.projection_base is None:
-            base = st.free_flight()
-            st.projection_base = (base, self.grid.owned_to_local(base))
-        return project_displacement(st, self.grid, u_owned, u_local, st.projection_base)[1]
+        return self.formulation.kinematic_displacement(self.state, self.grid, u_owned, u_local)
 
     def evaluate(self, u_owned, u_local):
         """The particles at the iterate u (compiled, G&W steps 4-5 and the
@@ -282,15 +271,14 @@ class StepProblem:
         evaluation = self.evaluate(X.getArray(readonly=True), grid.vec_to_local(X))
         if P.getType() == PETSc.Mat.Type.PYTHON:
             if evaluation is not None:
-                project = (lambda v: project_displacement(st, grid, v, grid.owned_to_local(v))) \
-                    if self.momentum else None
+                project = self.formulation.projector(st, grid)
                 P.getPythonContext().update(st, evaluation, self.residual_scale, project,
                                             X.getArray(readonly=True).copy())
             P.assemble()
             if J != P:
                 J.assemble()
             return
-        K = self.K if self.momentum else P
+        K = self.formulation.stiffness_matrix(P)
         pattern = st.pattern
         with self._stage("Assembly"):
             if self.coo:
@@ -310,9 +298,7 @@ class StepProblem:
                 K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
                                     self._tangent_values(evaluation), addv=PETSc.InsertMode.ADD_VALUES)
             K.assemble()
-            if self.momentum:
-                assemble_projection(st, self.projection, self.diag, self.row_offset, grid.dim)
-                K.matMult(self.projection, result=P)        # d Fint / du = K R
+            self.formulation.finish_stiffness(st, P, self.diag, self.row_offset, grid.dim)   # momentum: K R
             if st.integrator.stiffness_factor != 1.0:       # HHT: (1 + alpha) K
                 P.scale(st.integrator.stiffness_factor)
             if st.dynamic:

@@ -14,7 +14,6 @@ from mpi4py import MPI
 from .. import bc, weak_nodes
 from ..errors import THICKNESS_FAILURE, StepFailed
 from ..implicit import StepState, constraint_scale
-from ..implicit.momentum import group_by_node_set
 from ..kernels import pattern as kernel_pattern
 from ..kernels import stress as stress_kernels
 from ..kernels import transfer as transfer_kernels
@@ -82,10 +81,6 @@ def prepare(sim, dt):
         particle_mass=p["mass"], projection_floor=1e4 * sim.mass_floor,
         fixed=cons.fixed, fixed_value=cons.value,
         constraint_scale=constraint_scale(sim.materials, grid, sim.integrator, dt))
-    if sim.config["time"]["formulation"] == "momentum":    # the projection's blocks
-        order, starts = group_by_node_set(node_index, grid.n_local_nodes)
-        state.group_order, state.group_starts = order, starts
-        state.group_nodes = node_index[order][starts]
     if sim.integrator.needs_previous_force:     # HHT: Fint(t) - Fext(t) on the reset grid
         fext_now = sim.nodal_external_force(node_index, S, mass, sim.time)
         force = np.empty((grid.n_local_nodes, sim.dim))

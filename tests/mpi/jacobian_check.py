@@ -177,9 +177,11 @@ diag_ok = comm.allreduce(bool(np.all(np.abs(fixed_rows.sum(axis=1) - diag) <= 1e
 # The matrix-free shell (analytic directional derivative) against the
 # assembled matrix times random vectors.
 from pimpm.implicit import StepProblem
+from pimpm.implicit.formulation import make_formulation
 from pimpm.solver import NewtonSolver
 cfg_mf = dict(sim.config["solver"], preset="matrix-free")
-shell_problem = StepProblem(sim.grid, problem.residual_scale, momentum=momentum)
+shell_problem = StepProblem(sim.grid, problem.residual_scale, formulation=make_formulation(
+    "momentum" if momentum else "velocity"))
 shell_solver = NewtonSolver(sim.grid, shell_problem, cfg_mf)
 shell_problem.begin(state)
 shell_problem.form_jacobian(None, X, shell_solver.J, shell_solver.J)
