@@ -126,6 +126,13 @@ class Grid:
                           np.zeros(self.dim) if shift is None else np.asarray(shift, dtype=float), out)
         return out
 
+    def footprints_in_ghosts(self, x, kind):
+        """Do the footprints of positions ``x`` (shape functions of kernel
+        ``kind``, :mod:`pimpm.kernels.transfer`) lie in this rank's ghosted
+        node box, so that this rank can scatter and gather them?"""
+        return bool(reorder.footprints_in_box(kind, np.ascontiguousarray(x, dtype=float), self.lower, self.spacing,
+                                              self.cells, self.ghost_start, self.ghost_end))
+
     def key_descents(self, x, shift=None):
         """How many positions have a smaller :meth:`cell_keys` key than the
         one before them (compiled, no keys stored)."""

@@ -383,12 +383,23 @@ class Simulation:
             self._make_solver()
         self.step_imbalance = self.particle_imbalance()    # what the step will run with
 
-    def migrate(self, disorder=0.0):
+    def migrate(self, disorder=0.0, lazy=False):
         """Send particles to the rank owning their cell and sort them by
         footprint (while more than the fraction ``disorder`` of them is out of
         order), then check that the global particle count and mass are
-        unchanged."""
+        unchanged. ``lazy`` (the explicit step): nothing moves while every
+        particle's footprint stays in its rank's ghosted nodes, where the
+        rank can still scatter and gather it (its sums then reach the owner
+        of those nodes through the ghost exchange); one reduction decides.
+        Collective."""
         sets = (self.particles, self.rigid)
+        if lazy and self.comm.size > 1:
+            kind = self.shape.kernel_kind
+            stay = all(self.grid.footprints_in_ghosts(pset["x"], kind) for pset in sets)
+            if self.comm.allreduce(stay, op=MPI.LAND):
+                for pset in sets:
+                    sort_by_footprint(pset, self.grid, disorder)
+                return
         migrate(self.comm, [(pset, self.grid.owner_of_positions(pset["x"])) for pset in sets])
         for pset in sets:
             sort_by_footprint(pset, self.grid, disorder)

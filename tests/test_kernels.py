@@ -327,6 +327,35 @@ def test_compiled_take_equals_numpy_indexing():
     assert np.array_equal(merged[:n], a[::-1]) and np.all(merged[n:] == -1.0)
 
 
+@pytest.mark.parametrize("kind", ["linear", "gimp", "bspline"])
+def test_footprints_in_box_agrees_with_the_footprints(kind):
+    """The explicit step's lazy migration keeps particles whose footprints
+    lie in the rank's ghosted nodes (pimpm.kernels.reorder.footprints_in_box):
+    the check agrees with the footprint kernel's own nodes, particle by
+    particle, near the box's faces and the grid's."""
+    from pimpm.kernels.reorder import footprints_in_box
+    from pimpm.kernels.transfer import footprint
+    from pimpm.shape import make_shape
+    shape = make_shape(kind, 2)
+    lower, spacing, cells = np.zeros(2), np.array([0.5, 0.25]), np.array([12, 10])
+    box_start, box_end = np.array([3, 0]), np.array([9, 11])
+    x = RNG.uniform(0.0, 1.0, (400, 2)) * spacing * cells
+    nn = shape.nodes_per_particle
+    node_index, S, G = np.empty((1, nn), dtype=np.int64), np.empty((1, nn)), np.empty((1, nn, 2))
+    half = np.full((1, 2), 0.1)
+    inside = 0
+    for p in range(len(x)):
+        footprint(shape.kernel_kind, (0, 1), x[p:p + 1], lower, spacing, cells, half if kind == "gimp" else
+                  np.zeros((0, 2)), np.zeros(2, dtype=np.int64), cells + 1, node_index, S, G)
+        i, j = node_index[0] % (cells[0] + 1), node_index[0] // (cells[0] + 1)
+        expected = bool(np.all((i >= box_start[0]) & (i < box_end[0]) & (j >= box_start[1]) & (j < box_end[1])))
+        assert footprints_in_box(shape.kernel_kind, x[p:p + 1], lower, spacing, cells, box_start, box_end) == expected
+        inside += expected
+    assert 0 < inside < len(x)
+    assert not footprints_in_box(shape.kernel_kind, np.array([[np.nan, 1.0]]), lower, spacing, cells,
+                                 box_start, box_end)
+
+
 def test_runs_of_staying_particles_copy_as_slices():
     """Migration copies the particles that stay as slices when they form few
     runs of consecutive rows (pimpm.particles._runs), as a gather otherwise:

@@ -93,3 +93,27 @@ def key_descents(x, lower, spacing, cells, shift):
             descents += 1
         previous = index
     return descents
+
+
+@jit
+def footprints_in_box(kind, x, lower, spacing, cells, box_start, box_end):
+    """Do the footprints of all positions x (n, dim) -- the nodes
+    :func:`pimpm.kernels.transfer.footprint` gives them, shape functions of
+    ``kind`` (0 linear, 2 nodes per axis; otherwise 3, around the nearest
+    node), clipped onto the grid -- lie in the node box [box_start, box_end)?"""
+    dim = x.shape[1]
+    for p in range(x.shape[0]):
+        for d in range(dim):
+            xi = (x[p, d] - lower[d]) / spacing[d]
+            if not (xi == xi):
+                return False
+            if kind == 0:
+                first = min(max(int(np.floor(xi)), 0), cells[d] - 1)
+                last = first + 1
+            else:
+                base = int(np.floor(xi + 0.5)) - 1
+                first = min(max(base, 0), cells[d])
+                last = min(max(base + 2, 0), cells[d])
+            if first < box_start[d] or last >= box_end[d]:
+                return False
+    return True

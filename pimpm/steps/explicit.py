@@ -178,7 +178,7 @@ def advance(sim, dt):
         p["a"] = np.zeros_like(new_v)
         sim.rigid["x"] = new_rigid_x
     with log_stage(sim.stages["Migration"]):
-        sim.migrate(disorder=SORT_DISORDER)
+        sim.migrate(disorder=SORT_DISORDER, lazy=True)
     return sim.finish_step(dt, t0, forces, {"mass": mass, "velocity": v_new,
                                             "acceleration": acceleration,
                                             "displacement_increment": v_new * dt},

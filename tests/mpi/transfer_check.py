@@ -78,9 +78,9 @@ dv_p = grid_to_particle(node_index, S, dv_local)
 check("G2P momentum", gsum(np.sum(p["mass"][:, None] * dv_p, axis=0)),
       gsum(np.sum(M[:, None] * dv_nodes, axis=0)))
 
-# Migration: move every particle 5 cells to the right (across rank boundaries)
 count0 = comm.allreduce(len(p))
 id_sum0 = comm.allreduce(int(np.sum(p["id"])))
+# Migration: move every particle 5 cells to the right (across rank boundaries)
 p["x"] = p["x"] + np.array([2.5, 0.0])
 sim.migrate()                    # raises if count or mass changed
 p = sim.particles
@@ -91,6 +91,23 @@ owner_ok = comm.allreduce(bool(np.all(sim.grid.owner_of_cells(sim.grid.cell_of(p
 if count1 != count0 or id_sum1 != id_sum0 or not owner_ok:
     failures.append(f"migration: count {count0}->{count1}, id sum {id_sum0}->{id_sum1}, owners ok {owner_ok}")
 local_counts = comm.allgather(len(p))
+
+# Lazy migration (the explicit step): a move of 0.3 cells takes some particles
+# into a neighbour's cells but keeps every footprint in its rank's ghosted
+# nodes, so nothing moves; a full migration then sends them to their owners.
+held = sorted(p["id"].tolist())
+p["x"] = p["x"] + np.array([0.3, 0.0]) * sim.grid.spacing
+sim.migrate(lazy=True)
+p = sim.particles
+strays = comm.allreduce(int(np.count_nonzero(sim.grid.owner_of_cells(sim.grid.cell_of(p["x"])) != comm.rank)))
+if sorted(p["id"].tolist()) != held:
+    failures.append("lazy migration moved particles whose footprints stayed in the ghosted nodes")
+if comm.size > 1 and strays == 0:
+    failures.append("the lazy-migration check moved no particle into a neighbour's cells")
+sim.migrate()
+p = sim.particles
+if not comm.allreduce(bool(np.all(sim.grid.owner_of_cells(sim.grid.cell_of(p["x"])) == comm.rank)), op=MPI.LAND):
+    failures.append("after the lazy step, a full migration left particles off their owners")
 
 if comm.rank == 0:
     print(f"transfer_check ranks={comm.size} particles={count0} local_counts={counts_at_start} "
