@@ -10,7 +10,7 @@ written in local (ghosted) numbering.
 import numpy as np
 from petsc4py import PETSc
 
-from .kernels import reorder
+from .kernels import reorder, transfer
 
 
 class Grid:
@@ -130,8 +130,8 @@ class Grid:
         """Do the footprints of positions ``x`` (shape functions of kernel
         ``kind``, :mod:`pimpm.kernels.transfer`) lie in this rank's ghosted
         node box, so that this rank can scatter and gather them?"""
-        return bool(reorder.footprints_in_box(kind, np.ascontiguousarray(x, dtype=float), self.lower, self.spacing,
-                                              self.cells, self.ghost_start, self.ghost_end))
+        return bool(transfer.footprints_in_box(kind, np.ascontiguousarray(x, dtype=float), self.lower, self.spacing,
+                                               self.cells, self.ghost_start, self.ghost_end))
 
     def key_descents(self, x, shift=None):
         """How many positions have a smaller :meth:`cell_keys` key than the

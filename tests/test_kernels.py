@@ -330,11 +330,10 @@ def test_compiled_take_equals_numpy_indexing():
 @pytest.mark.parametrize("kind", ["linear", "gimp", "bspline"])
 def test_footprints_in_box_agrees_with_the_footprints(kind):
     """The explicit step's lazy migration keeps particles whose footprints
-    lie in the rank's ghosted nodes (pimpm.kernels.reorder.footprints_in_box):
+    lie in the rank's ghosted nodes (pimpm.kernels.transfer.footprints_in_box):
     the check agrees with the footprint kernel's own nodes, particle by
     particle, near the box's faces and the grid's."""
-    from pimpm.kernels.reorder import footprints_in_box
-    from pimpm.kernels.transfer import footprint
+    from pimpm.kernels.transfer import footprint, footprints_in_box
     from pimpm.shape import make_shape
     shape = make_shape(kind, 2)
     lower, spacing, cells = np.zeros(2), np.array([0.5, 0.25]), np.array([12, 10])

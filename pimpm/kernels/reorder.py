@@ -6,7 +6,7 @@ in one process). Particles are reordered and migrated after every step
 (:mod:`pimpm.particles`)."""
 import numpy as np
 
-from .jit import jit
+from .jit import jit, jit_inline
 
 
 @jit
@@ -36,12 +36,17 @@ def cell_keys(x, lower, spacing, cells, shift, out):
     """out[p] = the natural (x fastest) index of the cell holding x_p + shift,
     clipped onto the grid (:meth:`pimpm.grid.Grid.cell_of` and
     :meth:`~pimpm.grid.Grid.global_cell_index` in one pass)."""
-    dim = x.shape[1]
     for p in range(x.shape[0]):
-        index = 0
-        for d in range(dim - 1, -1, -1):
-            index = index * cells[d] + _clipped_cell(x[p, d] + shift[d], lower[d], spacing[d], cells[d])
-        out[p] = index
+        out[p] = _cell_key(x, p, lower, spacing, cells, shift)
+
+
+@jit_inline
+def _cell_key(x, p, lower, spacing, cells, shift):
+    """The natural (x fastest) index of the cell holding x_p + shift, clipped."""
+    index = 0
+    for d in range(x.shape[1] - 1, -1, -1):
+        index = index * cells[d] + _clipped_cell(x[p, d] + shift[d], lower[d], spacing[d], cells[d])
+    return index
 
 
 @jit
@@ -82,38 +87,12 @@ def key_descents(x, lower, spacing, cells, shift):
     """How many particles have a smaller :func:`cell_keys` key than the one
     before them (the disorder sort_by_footprint tolerates), without storing
     the keys."""
-    dim = x.shape[1]
     descents = 0
     previous = 0
     for p in range(x.shape[0]):
-        index = 0
-        for d in range(dim - 1, -1, -1):
-            index = index * cells[d] + _clipped_cell(x[p, d] + shift[d], lower[d], spacing[d], cells[d])
+        index = _cell_key(x, p, lower, spacing, cells, shift)
         if p > 0 and index < previous:
             descents += 1
         previous = index
     return descents
 
-
-@jit
-def footprints_in_box(kind, x, lower, spacing, cells, box_start, box_end):
-    """Do the footprints of all positions x (n, dim) -- the nodes
-    :func:`pimpm.kernels.transfer.footprint` gives them, shape functions of
-    ``kind`` (0 linear, 2 nodes per axis; otherwise 3, around the nearest
-    node), clipped onto the grid -- lie in the node box [box_start, box_end)?"""
-    dim = x.shape[1]
-    for p in range(x.shape[0]):
-        for d in range(dim):
-            xi = (x[p, d] - lower[d]) / spacing[d]
-            if not (xi == xi):
-                return False
-            if kind == 0:
-                first = min(max(int(np.floor(xi)), 0), cells[d] - 1)
-                last = first + 1
-            else:
-                base = int(np.floor(xi + 0.5)) - 1
-                first = min(max(base, 0), cells[d])
-                last = min(max(base + 2, 0), cells[d])
-            if first < box_start[d] or last >= box_end[d]:
-                return False
-    return True

@@ -55,6 +55,16 @@ def _fold(values, d, phantom, inner):
     values[d, phantom] = 0.0
 
 
+@jit_inline
+def _first_node(kind, xi, cells):
+    """The first node a footprint touches along an axis, at xi (cell units):
+    the cell's lower node for LINEAR (clipped onto the grid), else the node
+    below the nearest one (not clipped: the nodes are clipped one by one)."""
+    if kind == LINEAR:
+        return min(max(int(math.floor(xi)), 0), cells - 1)
+    return int(math.floor(xi + 0.5)) - 1
+
+
 @jit
 def footprint(kind, axes, x, lower, spacing, cells, half_size, ghost_start, ghost_shape,
               node_index, S, G):
@@ -82,14 +92,13 @@ def footprint(kind, axes, x, lower, spacing, cells, half_size, ghost_start, ghos
     for p in range(n):
         for d in range(dim):
             xi = (x[p, d] - lower[d]) / spacing[d]
+            base = _first_node(kind, xi, cells[d])
             if kind == LINEAR:
-                base = min(max(int(math.floor(xi)), 0), cells[d] - 1)
                 f = xi - base
                 node[d, 0], node[d, 1] = base, base + 1
                 w[d, 0], w[d, 1] = 1.0 - f, f
                 dw[d, 0], dw[d, 1] = -1.0, 1.0
             else:
-                base = int(math.floor(xi + 0.5)) - 1
                 half = half_size[p, d] / spacing[d] if kind == GIMP else 0.0
                 for k in range(3):
                     node[d, k] = base + k
@@ -115,6 +124,26 @@ def footprint(kind, axes, x, lower, spacing, cells, half_size, ghost_start, ghos
                 dw[d, k] /= spacing[d]
         for k in range(nn):
             _tensor_products(dim, k, p, offset, node, w, dw, ghost_start, stride, node_index, S, G)
+
+
+@jit
+def footprints_in_box(kind, x, lower, spacing, cells, box_start, box_end):
+    """Do the footprints of all positions x (n, dim) -- the nodes
+    :func:`footprint` gives them, clipped onto the grid -- lie in the node
+    box [box_start, box_end)? (The explicit step's lazy migration asks it of
+    each rank's ghosted nodes.)"""
+    npa = 2 if kind == LINEAR else 3
+    for p in range(x.shape[0]):
+        for d in range(x.shape[1]):
+            xi = (x[p, d] - lower[d]) / spacing[d]
+            if not (xi == xi):
+                return False
+            base = _first_node(kind, xi, cells[d])
+            first = min(max(base, 0), cells[d])
+            last = min(max(base + npa - 1, 0), cells[d])
+            if first < box_start[d] or last >= box_end[d]:
+                return False
+    return True
 
 
 @jit_inline
