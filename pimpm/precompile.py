@@ -48,6 +48,11 @@ def main():
             sim = Simulation(validate(tiny(dim, shape_functions, material)), MPI.COMM_SELF)
             sim.advance(1.0)
             sim.solver.destroy()
+        config = tiny(dim, "gimp", MATERIALS[0])             # contact with a rigid tool
+        config["bodies"][1].update(contact="frictionless")   # the same kernels as friction
+        sim = Simulation(validate(config), MPI.COMM_SELF)
+        sim.advance(1.0)
+        sim.solver.destroy()
         for shape_functions in ("linear", "gimp"):          # the explicit step's kernels
             config = tiny(dim, shape_functions, MATERIALS[0])
             config["time"] = {"integrator": "explicit", "end_time": 1.0}

@@ -130,13 +130,23 @@ def _number(command_line, name, default):
         raise ValueError(f"-{name} {command_line[name]}: expected a number") from None
 
 
-def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern, coo, asymmetry=""):
+#: the line search of runs with unilateral contact (pimpm.terms.contact). A
+#: Newton step taken where a corner has just left the tool (the predictor lags
+#: a withdrawing plate by a fraction of a cell) lets the body spring back through
+#: it; bt's backtracking then crawls (inputs/plate_release.yaml unloading: 7-12
+#: iterations, 8-24 backtracks per step), l2's secant on the residual norm does
+#: not (4 iterations)
+CONTACT_LINE_SEARCH = "l2"
+
+
+def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern, coo, asymmetry="",
+            contact=False):
     """The solver of a run from the input's ``solver`` section, the command
     line (``command_line``: PETSc's options database as {name: value}, no
     dash) and what the step's problem is like (a ``symmetric`` tangent, the
     dimension, whether it assembles on the particles' pattern through COO
-    values; ``asymmetry`` says why it is not symmetric, for the message).
-    A pure function; ValueError naming the option or key and its value."""
+    values; ``asymmetry`` says why it is not symmetric, for the message;
+    ``contact``: it has unilateral contact terms). A pure function; ValueError naming the option or key and its value."""
     preset = _word(command_line, "pimpm_preset", solver_config["preset"])
     if preset not in PRESETS:
         raise ValueError(f"-pimpm_preset {preset}: expected one of {', '.join(PRESETS)}")
@@ -150,6 +160,8 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
     wants_fallback = _flag(command_line, "pimpm_fallback", bool(solver_config["fallback"]))
     use_fallback = is_iterative and not is_matrix_free and wants_fallback
     options = dict(DEFAULT_SOLVER_OPTIONS)
+    if contact:
+        options["snes_linesearch_type"] = CONTACT_LINE_SEARCH
     options.update(petsc_options(preset_options))
     if use_fallback:
         options.update(FALLBACK_OPTIONS)

@@ -32,13 +32,15 @@ def _signed_distance_curved(points, geometry):
         radial = [d for d in range(points.shape[1]) if d != "xyz".index(geometry["axis"])]
         c = np.asarray(geometry["center"])[radial]
         return np.sqrt(np.sum((points[:, radial] - c) ** 2, axis=1)) - geometry["radius"]
+    if geometry["type"] == "half_space":      # a plane, the normal pointing out of the body
+        return (points - np.asarray(geometry["point"])) @ np.asarray(geometry["normal"])
     if geometry["type"] == "box":
         return None
     raise ValueError(f"unknown geometry type {geometry['type']!r}")
 
 
 def _bounding_box(geometry):
-    if geometry["type"] in ("box", "cylinder"):
+    if geometry["type"] in ("box", "cylinder", "half_space"):   # a half-space: the grid's box
         return np.asarray(geometry["lower"], float), np.asarray(geometry["upper"], float)
     c, r = np.asarray(geometry["center"], float), float(geometry["radius"])
     return c - r, c + r

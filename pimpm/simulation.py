@@ -34,7 +34,7 @@ from .seeding import overlapping_bodies, particles_per_body, seed_bodies
 from .shape import make_shape
 from .solver import NewtonSolver, diagnose_solver_options
 from .stages import log_stage, log_stages
-from .terms import BondedRigidBody, StepContext, make_terms
+from .terms import BondedRigidBody, ContactTool, StepContext, make_terms
 from .steps import explicit as explicit_step
 from .steps import implicit as implicit_step
 from .transfer import particle_to_grid
@@ -100,6 +100,7 @@ class Simulation:
             self.mass0 = float(self.particles.global_sum(comm, "mass"))
         else:
             self._restore(checkpoint)
+        self._add_term_fields()
         largest = float(np.max(self.particles["mass"])) if len(self.particles) else 0.0
         self.mass_floor = 1e-10 * comm.allreduce(largest, op=MPI.MAX)
         self.stages = log_stages()
@@ -120,6 +121,14 @@ class Simulation:
             return
         self._make_solver()
 
+    def _add_term_fields(self):
+        """The particle fields the contact tools carry from step to step (the
+        tangential traction at each domain corner), zero where a run starts."""
+        for term in self.terms:
+            field = getattr(term, "field", None)
+            if field is not None and field not in self.particles:
+                self.particles[field] = np.zeros((len(self.particles), 1 << self.dim, self.dim))
+
     def _restore(self, checkpoint):
         """The state of a checkpoint: particles (on the same number of ranks,
         each rank's own in their order; otherwise the ones in this rank's
@@ -138,6 +147,9 @@ class Simulation:
         self.time = checkpoint.time
         self.step_index = checkpoint.step
         self.work.restore(checkpoint.work)
+        for term in self.terms:
+            if term.name in checkpoint.terms:
+                term.restore(checkpoint.terms[term.name])
         self.count0 = checkpoint.initial["count"]
         self.rigid_count0 = checkpoint.initial["rigid_count"]
         self.mass0 = checkpoint.initial["mass"]
@@ -285,11 +297,17 @@ class Simulation:
     @property
     def rigid_bodies(self):
         """The terms that are rigid bodies (each has a force column in the history)."""
-        return [t for t in self.terms if isinstance(t, BondedRigidBody)]
+        return [t for t in self.terms if isinstance(t, (BondedRigidBody, ContactTool))]
+
+    @property
+    def contact_tools(self):
+        """The rigid bodies in unilateral contact (contact columns in the history)."""
+        return [t for t in self.terms if isinstance(t, ContactTool)]
 
     def begin_terms(self, dt):
         """Set every nodal term up for the step of size dt from self.time. Collective."""
-        context = StepContext(self.grid, self.shape, self.rigid, self.time, dt)
+        context = StepContext(self.grid, self.shape, self.rigid, self.time, dt, self.particles,
+                              self.particle_half_sizes)
         for term in self.terms:
             term.begin_step(context)
 

@@ -145,7 +145,8 @@ class NewtonSolver:
         self.stages = stages or {}
         plan = presets.resolve(solver_config, command_line_options(), symmetric=problem.symmetric,
                                dim=grid.dim, assembles_on_pattern=problem.assembles_on_pattern,
-                               coo=problem.coo, asymmetry=problem.asymmetry)
+                               coo=problem.coo, asymmetry=problem.asymmetry,
+                               contact=any(term.couples_particles for term in problem.terms))
         self.plan = plan
         self.preset = plan.preset
         self.matrix_free = plan.matrix_free

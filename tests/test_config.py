@@ -96,7 +96,7 @@ def test_base_config_normalizes_with_defaults():
     assert platen == {"name": "platen", "material": None, "rigid": True,
                       "geometry": {"type": "box", "lower": [0.0, 20.0], "upper": [28.0, 20.5]},
                       "particles_per_cell": [2, 2], "velocity": [0.0, -50.0], "function": None,
-                      "constrain": ["x", "y"]}
+                      "constrain": ["x", "y"], "contact": "bonded"}
     assert cfg["time"] == {"integrator": "quasi_static", "dt": 0.005, "end_time": 0.2,
                            "gravity": [0.0, 0.0], "gravity_function": None, "dt_initial": 0.005,
                            "ramp_factor": 1.2,

@@ -30,7 +30,7 @@ class CubicSpring(NodalTerm):
     def __init__(self, nodes, k, target, dim):
         self.nodes, self.k, self.target, self.dim = np.asarray(nodes), k, target, dim
 
-    def add_residual(self, u_owned, residual):
+    def add_residual(self, u_owned, u_local, residual, grid):
         u = u_owned.reshape(-1, self.dim)[self.nodes]
         residual.reshape(-1, self.dim)[self.nodes] += self.k * (u - self.target) ** 3
 

@@ -86,7 +86,26 @@ def validate(raw, source_name=None, base_dir=None):
               "materials": materials, "bodies": bodies, "loads": loads, "time": time,
               "solver": solver, "parallel": parallel, "output": output}
     check_derived(config)
+    _check_contact(config)
     return config
+
+
+def _check_contact(config):
+    """Unilateral and frictional contact (pimpm.terms.contact) runs in the
+    implicit velocity formulation; say so for the others."""
+    time = config["time"]
+    for i, body in enumerate(config["bodies"]):
+        law = body.get("contact")
+        if law in (None, "bonded"):
+            continue
+        if time["integrator"] == "explicit":
+            raise ConfigError(f"bodies[{i}].contact = {law!r}: expected bonded with "
+                              "time.integrator: explicit (frictionless and friction contact run in "
+                              "the implicit integrators so far)", path=f"bodies[{i}].contact")
+        if time["formulation"] != "velocity":
+            raise ConfigError(f"bodies[{i}].contact = {law!r}: expected bonded with "
+                              f"time.formulation: {time['formulation']} (frictionless and friction "
+                              "contact need the velocity formulation)", path=f"bodies[{i}].contact")
 
 
 def load_config(path, overrides=()):

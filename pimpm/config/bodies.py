@@ -12,8 +12,8 @@ from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _f
     _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _ordered_bounds, _positive, _string)
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
-    DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
-    MODEL_PARAMETER_KEYS)
+    CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
+    MODEL_PARAMETER_KEYS, RIGID_ONLY_GEOMETRIES)
 
 
 def _validate_material(value, path):
@@ -132,6 +132,16 @@ def _validate_geometry(value, path, dim, base_dir=None):
     sec = _Section(value, path, GEOMETRY_KEYS[gtype])
     if gtype in FILE_GEOMETRIES:
         return _validate_file_geometry(sec, gtype, path, dim, base_dir)
+    if gtype == "half_space":
+        # the points x with (x - point) . normal <= 0; the normal points out of the tool
+        point = _float_vector(sec.required("point", f"a list of {dim} numbers"), sec.sub("point"), dim)
+        normal = _float_vector(sec.required("normal", f"a list of {dim} numbers, not all zero"),
+                               sec.sub("normal"), dim)
+        length = float(np.linalg.norm(normal))
+        if not length > 0.0:
+            _fail(sec.sub("normal"), sec.data["normal"], f"a list of {dim} numbers, not all zero (the "
+                                             "outward normal of the tool's surface)")
+        return {"type": "half_space", "point": point, "normal": [v / length for v in normal]}
     if gtype in ("box", "cylinder"):
         lower, upper = _ordered_bounds(sec, dim)
         if gtype == "box":
@@ -164,6 +174,8 @@ def _check_inside_grid(geom, path, grid, dim):
                     f"{path}.file = {geom['file']!r}: the {what} (after scale and offset) spans "
                     f"[{_fmt(lo)}, {_fmt(hi)}] on axis {axis}: expected it to lie within {within}",
                     path=f"{path}.file")
+        elif geom["type"] == "half_space":
+            continue                    # clipped to the grid (bodies: lower/upper set to the grid's)
         elif geom["type"] in ("box", "cylinder"):
             if geom["lower"][i] < glo[i] - tol:
                 _fail(f"{path}.lower[{i}]", geom["lower"][i],
@@ -202,6 +214,11 @@ def _validate_body(value, path, dim, materials, grid, functions=None, base_dir=N
                                                            f"({_choices(GEOMETRY_TYPES)})"),
                                   sec.sub("geometry"), dim, base_dir)
     _check_inside_grid(geometry, sec.sub("geometry"), grid, dim)
+    if geometry["type"] in RIGID_ONLY_GEOMETRIES:
+        if not rigid:
+            _fail(sec.sub("geometry.type"), geometry["type"], "a half_space only on a rigid body "
+                  "(rigid: true): a deformable body needs a bounded region")
+        geometry["lower"], geometry["upper"] = list(grid["lower"]), list(grid["upper"])
 
     ppc_path = sec.sub("particles_per_cell")
     ppc = sec.optional("particles_per_cell")
@@ -253,9 +270,48 @@ def _validate_body(value, path, dim, materials, grid, functions=None, base_dir=N
                 seen.add(a)
             constrain = [a for a in axes if a in seen]
 
+    contact = _validate_contact(sec, rigid, constrain, dim)
     return {"name": name, "material": material, "rigid": rigid, "geometry": geometry,
             "particles_per_cell": ppc, "velocity": velocity, "function": function,
-            "constrain": constrain}
+            "constrain": constrain, **contact}
+
+
+def _validate_contact(sec, rigid, constrain, dim):
+    """A rigid body's contact law (pimpm.contact): ``contact`` (bonded by
+    default), ``friction_coefficient`` (friction only) and
+    ``contact_stiffness`` (frictionless and friction)."""
+    for key in ("contact", "friction_coefficient", "contact_stiffness"):
+        if sec.has(key) and not rigid:
+            _fail(sec.sub(key), sec.data[key], f"no '{key}' on a deformable body (a contact law is "
+                                               "a rigid body's, with rigid: true)")
+    law = sec.optional("contact")
+    law = "bonded" if law is _MISSING else _enum(law, sec.sub("contact"), CONTACT_LAWS)
+    if not rigid:
+        return {}
+    out = {"contact": law}
+    mu = sec.optional("friction_coefficient")
+    if law == "friction":
+        expected = "a number >= 0 (Coulomb's coefficient of friction)"
+        if mu is _MISSING:
+            _fail_missing(sec.sub("friction_coefficient"), expected + " with contact: friction")
+        mu = _float(mu, sec.sub("friction_coefficient"), expected)
+        if mu < 0.0:
+            _fail(sec.sub("friction_coefficient"), sec.data["friction_coefficient"], expected)
+        out["friction_coefficient"] = mu
+    elif mu is not _MISSING:
+        _fail(sec.sub("friction_coefficient"), mu, f"no friction_coefficient with contact: {law} "
+                                                   "(it applies only with contact: friction)")
+    stiffness = sec.optional("contact_stiffness")
+    if law in ("frictionless", "friction"):
+        out["contact_stiffness"] = DEFAULT_CONTACT_STIFFNESS if stiffness is _MISSING else \
+            _positive(stiffness, sec.sub("contact_stiffness"))
+        if sec.has("constrain") and list(constrain) != list(AXES[:dim]):
+            _fail(sec.sub("constrain"), sec.data["constrain"], f"no 'constrain' with contact: {law} "
+                  "(the contact law sets what the tool holds; constrain is bonded contact's)")
+    elif stiffness is not _MISSING:
+        _fail(sec.sub("contact_stiffness"), stiffness, f"no contact_stiffness with contact: {law} "
+                                                       "(it applies to frictionless and friction)")
+    return out
 
 
 def _validate_bodies(value, path, dim, materials, grid, functions=None, base_dir=None):

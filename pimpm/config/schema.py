@@ -16,7 +16,9 @@ BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
 BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: tuple(k for k in _KINEMATICS_REGISTRY if k != "3d"), 3: ("3d",)}
 MATERIAL_MODELS = tuple(MODELS)
-GEOMETRY_TYPES = ("box", "ball", "cylinder", "mesh", "particles")
+GEOMETRY_TYPES = ("box", "ball", "cylinder", "half_space", "mesh", "particles")
+#: geometries only a rigid body may have (a half-space is clipped to the grid)
+RIGID_ONLY_GEOMETRIES = ("half_space",)
 FILE_GEOMETRIES = ("mesh", "particles")
 DEFAULT_PARTICLES_PER_ELEMENT = 2
 INTEGRATORS = tuple(_INTEGRATOR_REGISTRY)
@@ -36,9 +38,17 @@ ELASTIC_KEYS = ("shear_modulus", "bulk_modulus", "youngs_modulus", "poisson_rati
 MODEL_PARAMETER_KEYS = tuple(dict.fromkeys(k for m in MODELS.values() for k in m.parameters))
 MATERIAL_KEYS = ("model", "density") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
-             "velocity", "function", "constrain")
+             "velocity", "function", "constrain", "contact", "friction_coefficient",
+             "contact_stiffness")
+#: how a rigid body meets the material (pimpm.contact): bonded (it prescribes
+#: the nodes its particles touch), frictionless or friction (unilateral
+#: contact at the body's surface, Coulomb friction with friction_coefficient)
+CONTACT_LAWS = ("bonded", "frictionless", "friction")
+#: the contact penalty per unit area is contact_stiffness x (largest P-wave modulus) / h
+DEFAULT_CONTACT_STIFFNESS = 100.0
 GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius"),
                  "cylinder": ("type", "lower", "upper", "axis", "center", "radius"),
+                 "half_space": ("type", "point", "normal"),
                  "mesh": ("type", "file", "particles_per_element", "scale", "offset"),
                  "particles": ("type", "file", "scale", "offset")}
 TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "gravity_function", "dt_initial", "ramp_factor",

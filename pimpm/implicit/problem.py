@@ -101,8 +101,11 @@ class StepProblem:
         self.formulation = formulation or VelocityFormulation()
         materials = (f"material model {', '.join(sorted(set(nonsymmetric_materials)))} (its "
                      "consistent tangent is not symmetric)" if nonsymmetric_materials else "")
+        frictional = [t.name for t in self.terms if not t.symmetric_tangent]
+        friction = (f"frictional contact with {', '.join(frictional)} (Coulomb's return map has "
+                    "no symmetric tangent)" if frictional else "")
         #: why the assembled tangent is not symmetric ("" if it is)
-        self.asymmetry = self.formulation.asymmetry or materials
+        self.asymmetry = self.formulation.asymmetry or materials or friction
         #: is the assembled tangent symmetric? (then a symmetric factorization applies)
         self.symmetric = not self.asymmetry
         #: has every material's stiffness density major symmetry? (each particle's
@@ -132,6 +135,8 @@ class StepProblem:
         if state.evaluation is None:
             state.evaluation = ParticleEvaluation(state, self.grid.n_local_nodes, self.grid.dim)
         self.formulation.begin_step(state, self.grid)
+        for term in self.terms:
+            term.begin_newton(state)
 
     @property
     def assembles_on_pattern(self):
@@ -243,7 +248,7 @@ class StepProblem:
         fint = self.grid.sum_to_owned(evaluation.force)
         force = st.integrator.balance(fint - st.external_force, st, u_owned)
         for term in self.terms:
-            term.add_residual(u_owned, force)
+            term.add_residual(u_owned, u_local, force, self.grid)
         return force
 
     # ----------------------------------------------------------------- SNES callbacks
@@ -273,7 +278,7 @@ class StepProblem:
             if evaluation is not None:
                 project = self.formulation.projector(st, grid)
                 P.getPythonContext().update(st, evaluation, self.residual_scale, project,
-                                            X.getArray(readonly=True).copy())
+                                            X.getArray(readonly=True).copy(), grid.vec_to_local(X))
             P.assemble()
             if J != P:
                 J.assemble()
@@ -283,14 +288,16 @@ class StepProblem:
         with self._stage("Assembly"):
             if self.coo:
                 # every rank hands PETSc its values, none or not (collective)
-                values = self._jacobian_values(evaluation, X.getArray(readonly=True))
+                values = self._jacobian_values(evaluation, X.getArray(readonly=True),
+                                               grid.vec_to_local(X))
                 coo.set_values(P, values)
                 if self.free_matrix is not None:
                     coo.set_values(self.free_matrix, values)
                 if J != P:
                     J.assemble()
                 return
-            if any(term.jacobian_blocks(X.getArray(readonly=True)) is not None for term in self.terms):
+            if any(term.couples_particles or term.jacobian_blocks(X.getArray(readonly=True)) is not None
+                   for term in self.terms):
                 raise NotImplementedError("nodal terms with a derivative need the COO assembly "
                                           "(velocity formulation)")
             K.zeroEntries()
@@ -310,7 +317,7 @@ class StepProblem:
             if J != P:
                 J.assemble()
 
-    def _jacobian_values(self, evaluation, u_owned):
+    def _jacobian_values(self, evaluation, u_owned, u_local):
         """This rank's COO values of the whole Jacobian: the tangent blocks
         (zeros if a particle inverted), times the HHT factor, plus the mass
         term on owned diagonals, with the prescribed rows and columns
@@ -330,6 +337,8 @@ class StepProblem:
         if st.dynamic:
             values[owned_diagonal] += st.mass_coefficient * st.mass
         for term in self.terms:
+            if term.couples_particles:
+                term.add_jacobian_values(u_local, self.grid, st.pattern, values)
             blocks = term.jacobian_blocks(u_owned)
             if blocks is not None:
                 nodes, matrices = blocks

@@ -35,14 +35,25 @@ class TangentShell:
         blocks = (term.jacobian_blocks(self.u) for term in self.terms)
         return [b for b in blocks if b is not None]
 
-    def update(self, state, evaluation, scale, project=None, u_owned=None):
+    def update(self, state, evaluation, scale, project=None, u_owned=None, u_local=None):
         """``project`` (momentum formulation): owned u -> (owned, local) R u;
         ``u_owned``: the iterate (the nodal terms' derivatives are taken there)."""
         self.project = project
         self.u = u_owned
+        self.u_local = u_local
         self.state = state
         self.evaluation = evaluation
         self.scale = scale
+
+    def _add_coupled(self, apply, out):
+        """Add the particle-coupled terms' share (``apply(term, out_local)``)
+        to ``out`` (owned dofs). Collective when there are such terms."""
+        coupled = [term for term in self.terms if term.couples_particles]
+        if coupled:
+            local = np.zeros((self.grid.n_local_nodes, self.grid.dim))
+            for term in coupled:
+                apply(term, local)
+            out += self.grid.sum_to_owned(local)
 
     def _kernel_arguments(self):
         st, ev = self.state, self.evaluation
@@ -64,6 +75,8 @@ class TangentShell:
             out *= st.integrator.stiffness_factor
         if st.dynamic:
             out += st.mass_coefficient * st.mass * xs_free
+        self._add_coupled(lambda term, out_local: term.add_product(self.u_local, grid, x_local, out_local),
+                          out)
         for nodes, blocks in self._term_blocks():
             x_nodes = xs_free.reshape(-1, grid.dim)[nodes]
             np.add.at(out.reshape(-1, grid.dim), nodes, np.einsum("kab,kb->ka", blocks, x_nodes))
@@ -82,6 +95,7 @@ class TangentShell:
             out *= st.integrator.stiffness_factor
         if st.dynamic:
             out += st.mass_coefficient * st.mass
+        self._add_coupled(lambda term, out_local: term.add_diagonal(self.u_local, grid, out_local), out)
         for nodes, blocks in self._term_blocks():
             np.add.at(out.reshape(-1, grid.dim), nodes, np.diagonal(blocks, axis1=1, axis2=2))
         out[st.fixed] = st.constraint_scale

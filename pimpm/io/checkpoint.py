@@ -68,6 +68,7 @@ def write_checkpoint(sim, control, directory):
         f.attrs["physics"] = physics_json(sim.config)
         f.attrs["control"] = json.dumps(control.state())
         f.attrs["work"] = json.dumps(sim.work.state())
+        f.attrs["terms"] = json.dumps({term.name: term.state() for term in sim.terms})
         f.attrs["initial"] = json.dumps({"count": int(sim.count0), "rigid_count": int(sim.rigid_count0),
                                          "mass": float(sim.mass0)})
         ranges = f.create_group("ownership_ranges")
@@ -105,6 +106,8 @@ class Checkpoint:
         self.control = json.loads(attrs["control"])
         self.work = json.loads(attrs["work"])
         self.initial = json.loads(attrs["initial"])
+        #: each nodal term's state by name (contact tools: where the tool is)
+        self.terms = json.loads(attrs.get("terms") or "{}")
         self.ownership_ranges = ranges
         self.proc_sizes = proc_sizes
         self.sets = sets
@@ -123,11 +126,12 @@ def read_checkpoint(directory, comm):
     try:
         attrs = {k: f.attrs[k] for k in ("format", "step", "time", "ranks", "physics", "control",
                                           "work", "initial")}
+        attrs["terms"] = f.attrs.get("terms", "{}")
         if int(attrs["format"]) != FORMAT:
             raise KeyError(f"checkpoint format {attrs['format']} (this pimpm reads {FORMAT})")
         physics = attrs["physics"]
         attrs["physics"] = physics.decode() if isinstance(physics, bytes) else str(physics)
-        for k in ("control", "work", "initial"):
+        for k in ("control", "work", "initial", "terms"):
             v = attrs[k]
             attrs[k] = v.decode() if isinstance(v, bytes) else str(v)
         group = f["ownership_ranges"]

@@ -135,6 +135,8 @@ def update_particles(sim, state, cons, u, dt):
     grid, p = sim.grid, sim.particles
     u_local = grid.owned_to_local(u)
     forces = cons.reactions(sim.problem.unconstrained_residual(u, u_local), sim.comm, sim.dim)
+    for term in sim.terms:                 # contact tools: their force on the material
+        term.report(forces, sim.comm)
     # converged state (kinematics and stress of the residual just evaluated),
     # a_g(t+dt) from eq. 16, interpolate to particles
     converged = state.residual_evaluation
@@ -164,4 +166,6 @@ def update_particles(sim, state, cons, u, dt):
     for name, values in committed.items():                   # commit the history
         p["h_" + name] = values
     sim.rigid["x"] = sim.rigid["x"] + rigid_moves
+    for term in sim.terms:
+        term.commit(p)
     return forces, v_new, a_new

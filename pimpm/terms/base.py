@@ -8,12 +8,20 @@ term of the run at the same places:
 * :meth:`NodalTerm.prescribed`: the owned dofs it prescribes this step and
   their incremental displacements (the constraints of G&W step 2; later
   terms win over earlier ones, grid faces over all);
+* :meth:`NodalTerm.begin_newton` once the step's footprint is final;
 * :meth:`NodalTerm.add_residual` and :meth:`NodalTerm.jacobian_blocks`
   inside Newton: its force on the owned dofs at an iterate (force units,
   before the residual's scaling) and its derivative there as dim x dim
   blocks on owned nodes' diagonals, which the step's tangent pattern always
   holds (:meth:`pimpm.implicit.state.TangentPattern.block_positions`), so a
   term adds no nonzero to the matrix; the matrix-free product applies them too;
+  a term whose derivative couples the nodes of each particle's footprint
+  (``couples_particles``: contact at the particles' domain corners) adds
+  its derivative itself (:meth:`NodalTerm.add_jacobian_values`,
+  :meth:`NodalTerm.add_product`, :meth:`NodalTerm.add_diagonal`): the
+  footprint couplings are in the pattern too;
+* :meth:`NodalTerm.report` and :meth:`NodalTerm.commit` once the step has
+  converged: its force on the material and what it keeps of the step;
 * :meth:`NodalTerm.add_explicit_force` in the explicit step's grid update
   (MPM introduction eq. 1): its force on the owned dofs from the grid
   velocity at t;
@@ -30,8 +38,10 @@ class StepContext:
     """What a term sees of the step being set up: the grid, the shape
     functions, the rigid particles, the start of the step and its size."""
 
-    def __init__(self, grid, shape, rigid, time, dt):
+    def __init__(self, grid, shape, rigid, time, dt, particles=None, half_sizes=None):
         self.grid, self.shape, self.rigid, self.time, self.dt = grid, shape, rigid, time, dt
+        #: the material particles, and a function giving their current GIMP domain half sizes
+        self.particles, self.half_sizes = particles, half_sizes
 
 
 class NodalTerm:
@@ -40,6 +50,10 @@ class NodalTerm:
 
     #: the term's name (the history's force columns)
     name = "term"
+    #: does the term's derivative couple the nodes of each particle's footprint?
+    couples_particles = False
+    #: is the term's derivative symmetric?
+    symmetric_tangent = True
 
     def begin_step(self, context):
         """Set the step up (``context``: a :class:`StepContext`). Collective."""
@@ -49,9 +63,30 @@ class NodalTerm:
         or None."""
         return None
 
-    def add_residual(self, u_owned, residual):
-        """Add the term's force at the iterate ``u_owned`` to ``residual``
-        (owned dofs, force units)."""
+    def begin_newton(self, state):
+        """The step's Newton state (a StepState) is made: its footprint is final."""
+
+    def add_residual(self, u_owned, u_local, residual, grid):
+        """Add the term's share of the residual at the iterate ``u_owned``
+        (``u_local``: the same, ghosted-local) to ``residual`` (owned dofs,
+        force units). Collective."""
+
+    def add_jacobian_values(self, u_local, grid, pattern, values):
+        """``couples_particles``: add the derivative of :meth:`add_residual`
+        into this rank's COO values of the step's ``pattern``."""
+
+    def add_product(self, u_local, grid, x_local, out_local):
+        """``couples_particles``: add the derivative times ``x_local`` (ghosted-local)."""
+
+    def add_diagonal(self, u_local, grid, out_local):
+        """``couples_particles``: add the derivative's diagonal (ghosted-local)."""
+
+    def report(self, forces, comm):
+        """The converged step: add the term's force on the material to
+        ``forces`` (name -> vector) if it is not a reaction. Collective."""
+
+    def commit(self, particles):
+        """The converged step: keep what the term carries to the next one."""
 
     def jacobian_blocks(self, u_owned):
         """The derivative of :meth:`add_residual` at the iterate ``u_owned``:

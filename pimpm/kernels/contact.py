@@ -1,0 +1,482 @@
+"""Compiled kernels of unilateral, frictional contact between the material
+and a rigid tool (:mod:`pimpm.contact`): the tool's exact geometry as a
+signed distance, the contact law at one point, and the contact term's force,
+tangent blocks and matrix-free product over the particles' domain corners.
+
+Where contact acts. Each particle's domain (GIMP's box of half sizes l_p,
+convected by F) has 2^dim corners x_p + r_c, r_c = (+-l_1, +-l_2(, +-l_3)).
+Over the step a corner moves with the particle's own interpolation, to
+first order about x_p (the domain deforms with F_inc, as the particle's
+stress does):
+
+    c(u) = x_p + r_c + sum_I w_cI u_I,   w_cI = S_Ip + G_Ip . r_c
+
+so the corner lies where the body's surface lies, and its weights touch
+only the particle's own footprint nodes: the contact tangent adds no
+nonzero to the step's pattern. A corner inside the tool (signed distance
+phi < 0) carries the penalty pressure p = -k_n phi over its share a_c of
+the particle's surface; tangentially an elastic-slip penalty k_t with
+Coulomb's return map (|t| <= mu p: stick; otherwise slip, t = mu p e).
+"""
+import numpy as np
+
+from .jit import jit, jit_inline
+from .particle_step import _add_group
+
+HALF_SPACE, BOX, BALL, CYLINDER = 0, 1, 2, 3
+OPEN, STICK, SLIP = 0, 1, 2
+
+
+@jit_inline
+def _radial_hessian(H, e, d, axes_mask, dim):
+    """H += (P - e e^T) / d on the axes of ``axes_mask`` (the Hessian of
+    the distance |y| from an axis or a point, e its unit direction)."""
+    for a in range(dim):
+        for b in range(dim):
+            H[a, b] += ((1.0 if (a == b and axes_mask[a]) else 0.0) - e[a] * e[b]) / d
+
+
+@jit
+def tool_distance(kind, params, y, dim, n, H, face=-1):
+    """Signed distance of ``y`` from the tool's surface (positive outside),
+    its gradient ``n`` (the outward unit normal of the nearest surface
+    point) and its Hessian ``H`` (zero on flat faces), for the tool at rest
+    (``y``: the point minus the tool's displacement).
+
+    ``face`` (boxes and cylinders; -1: none): the face the point meets the
+    tool through (:func:`contact_faces`). Inside a box the nearest face is
+    not always that one: a corner that has just crossed the bottom face
+    beside the box's side face (a platen as wide as the body, its side on
+    the symmetry plane) is nearer the side. Within the face's extent the
+    distance is then the signed distance from the face's plane (the extent
+    widened by ``params[11]``, a thousandth of a cell: a corner on the edge
+    of a tool as wide as the body must not flicker in and out of contact
+    with round-off)."""
+    for a in range(dim):
+        n[a] = 0.0
+        for b in range(dim):
+            H[a, b] = 0.0
+    if face >= 0 and kind == BOX:             # face = 2 axis + (1 on the upper side)
+        normal_axis = int(face) // 2
+        within = True
+        for a in range(dim):
+            if a != normal_axis and (y[a] < params[a] - params[11] or y[a] > params[3 + a] + params[11]):
+                within = False
+        if within:
+            if int(face) % 2 == 1:
+                n[normal_axis] = 1.0
+                return y[normal_axis] - params[3 + normal_axis]
+            n[normal_axis] = -1.0
+            return params[normal_axis] - y[normal_axis]
+    if face >= 0 and kind == CYLINDER:        # face 0: the mantle; 1, 2: the lower, upper cap
+        axis = int(params[7])
+        if face == 0 and params[axis] - params[11] <= y[axis] <= params[3 + axis] + params[11]:
+            r2 = 0.0
+            for a in range(3):
+                if a != axis:
+                    r2 += (y[a] - params[8 + a]) ** 2
+            r = np.sqrt(r2)
+            if r > 0.0:
+                mask = np.ones(3, dtype=np.bool_)
+                mask[axis] = False
+                for a in range(3):
+                    n[a] = 0.0 if a == axis else (y[a] - params[8 + a]) / r
+                _radial_hessian(H, n, r, mask, 3)
+                return r - params[6]
+        elif face > 0:
+            r2 = 0.0
+            for a in range(3):
+                if a != axis:
+                    r2 += (y[a] - params[8 + a]) ** 2
+            if r2 <= (params[6] + params[11]) ** 2:
+                if face == 2:
+                    n[axis] = 1.0
+                    return y[axis] - params[3 + axis]
+                n[axis] = -1.0
+                return params[axis] - y[axis]
+    if kind == HALF_SPACE:                    # point params[0:3], unit normal params[3:6]
+        phi = 0.0
+        for a in range(dim):
+            n[a] = params[3 + a]
+            phi += (y[a] - params[a]) * params[3 + a]
+        return phi
+    if kind == BALL:                          # center params[0:3], radius params[6]
+        d2 = 0.0
+        for a in range(dim):
+            d2 += (y[a] - params[a]) ** 2
+        d = np.sqrt(d2)
+        if d == 0.0:
+            n[dim - 1] = 1.0
+            return -params[6]
+        mask = np.ones(3, dtype=np.bool_)
+        for a in range(dim):
+            n[a] = (y[a] - params[a]) / d
+        _radial_hessian(H, n, d, mask, dim)
+        return d - params[6]
+    if kind == BOX:                           # lower params[0:3], upper params[3:6]
+        q = np.empty(3)
+        s = np.empty(3)
+        inside = True
+        for a in range(dim):
+            c = 0.5 * (params[a] + params[3 + a])
+            s[a] = 1.0 if y[a] >= c else -1.0
+            q[a] = abs(y[a] - c) - 0.5 * (params[3 + a] - params[a])
+            if q[a] > 0.0:
+                inside = False
+        if inside:                            # the nearest face
+            best = 0
+            for a in range(1, dim):
+                if q[a] > q[best]:
+                    best = a
+            n[best] = s[best]
+            return q[best]
+        d2 = 0.0
+        mask = np.zeros(3, dtype=np.bool_)
+        for a in range(dim):
+            if q[a] > 0.0:
+                d2 += q[a] * q[a]
+                mask[a] = True
+        d = np.sqrt(d2)
+        for a in range(dim):
+            if mask[a]:
+                n[a] = s[a] * q[a] / d
+        _radial_hessian(H, n, d, mask, dim)
+        return d
+    # CYLINDER (3D): lower params[0:3], upper params[3:6], radius params[6],
+    # axis params[7], center params[8:11]
+    axis = int(params[7])
+    radial = np.empty(3)
+    r2 = 0.0
+    for a in range(3):
+        radial[a] = 0.0 if a == axis else y[a] - params[8 + a]
+        r2 += radial[a] * radial[a]
+    r = np.sqrt(r2)
+    er = np.zeros(3)
+    if r > 0.0:
+        for a in range(3):
+            er[a] = radial[a] / r
+    else:
+        er[(axis + 1) % 3] = 1.0
+    dr = r - params[6]
+    middle = 0.5 * (params[axis] + params[3 + axis])
+    sa = 1.0 if y[axis] >= middle else -1.0
+    da = abs(y[axis] - middle) - 0.5 * (params[3 + axis] - params[axis])
+    mask = np.ones(3, dtype=np.bool_)
+    mask[axis] = False
+    if dr <= 0.0 and da <= 0.0:               # inside: the nearer of the mantle and the caps
+        if dr >= da:
+            for a in range(3):
+                n[a] = er[a]
+            if r > 0.0:
+                _radial_hessian(H, er, r, mask, 3)
+            return dr
+        n[axis] = sa
+        return da
+    if da <= 0.0:                             # beside the mantle
+        for a in range(3):
+            n[a] = er[a]
+        _radial_hessian(H, er, r, mask, 3)
+        return dr
+    if dr <= 0.0:                             # above or below a cap
+        n[axis] = sa
+        return da
+    d = np.sqrt(dr * dr + da * da)            # beyond the rim: the distance from the rim circle
+    for a in range(3):
+        n[a] = (dr * er[a] + (sa * da if a == axis else 0.0)) / d
+    # H = (grad g grad g^T - n n^T) / d + (dr / d) Hr, g = (dr, da)
+    for a in range(3):
+        for b in range(3):
+            H[a, b] = (er[a] * er[b] + (1.0 if (a == axis and b == axis) else 0.0) - n[a] * n[b]) / d
+    scale = dr / d
+    for a in range(3):
+        for b in range(3):
+            H[a, b] += scale * ((1.0 if (a == b and mask[a]) else 0.0) - er[a] * er[b]) / r
+    return d
+
+
+@jit
+def contact_faces(kind, params, x, offset_end, faces):
+    """The face each particle meets a box or cylinder tool through: the one
+    its centre ``x`` lies beyond, and only beyond (the tool displaced by
+    ``offset_end``); -1 where the centre lies beyond an edge or inside
+    (then the nearest point of the tool counts), and for other tools."""
+    n_particles, dim = x.shape
+    for p in range(n_particles):
+        faces[p] = -1
+        if kind == BOX:
+            beyond = 0
+            for a in range(dim):
+                y = x[p, a] - offset_end[a]
+                if y < params[a]:
+                    beyond += 1
+                    faces[p] = 2 * a
+                elif y > params[3 + a]:
+                    beyond += 1
+                    faces[p] = 2 * a + 1
+            if beyond != 1:
+                faces[p] = -1
+        elif kind == CYLINDER:
+            axis = int(params[7])
+            r2 = 0.0
+            for a in range(3):
+                if a != axis:
+                    r2 += (x[p, a] - offset_end[a] - params[8 + a]) ** 2
+            y = x[p, axis] - offset_end[axis]
+            outside_radius = r2 > params[6] ** 2
+            below, above = y < params[axis], y > params[3 + axis]
+            if outside_radius and not (below or above):
+                faces[p] = 0
+            elif not outside_radius and below:
+                faces[p] = 1
+            elif not outside_radius and above:
+                faces[p] = 2
+
+
+@jit
+def contact_point(kind, params, y, slip, history, area, kn, kt, mu, friction, dim, f, D, traction,
+                  face=-1):
+    """The contact law at one point: the force ``f`` on the body (dim), its
+    derivative ``D`` = df/dy (dim x dim), the traction on the body
+    ``traction`` (dim) and the status (OPEN, STICK, SLIP), for the point at
+    ``y`` (relative to the tool at rest), having slipped ``slip`` relative
+    to the tool over the step, with the tangential traction ``history`` of
+    the last step; ``area``: its share of the surface. Returns (status,
+    pressure)."""
+    n = np.empty(3)
+    H = np.empty((3, 3))
+    phi = tool_distance(kind, params, y, dim, n, H, face)
+    for a in range(dim):
+        f[a] = 0.0
+        traction[a] = 0.0
+        for b in range(dim):
+            D[a, b] = 0.0
+    if not phi < 0.0:
+        return OPEN, 0.0
+    p = -kn * phi                             # the penalty pressure, dp/dy = -kn n
+    for a in range(dim):
+        f[a] = area * p * n[a]
+        for b in range(dim):
+            D[a, b] = area * (-kn * n[a] * n[b] + p * H[a, b])
+    if not friction:
+        return SLIP, p
+    # trial tangential traction t = P (history - kt slip), P = I - n n^T, and its
+    # derivative: dP v/dy = -kt P - (n.v) H - n (H v)^T (v = history - kt slip)
+    v = np.empty(3)
+    nv = 0.0
+    for a in range(dim):
+        v[a] = history[a] - kt * slip[a]
+        nv += n[a] * v[a]
+    Hv = np.zeros(3)
+    for a in range(dim):
+        for b in range(dim):
+            Hv[a] += H[a, b] * v[b]
+    t = np.empty(3)
+    dt = np.empty((3, 3))
+    norm2 = 0.0
+    for a in range(dim):
+        t[a] = v[a] - n[a] * nv
+        norm2 += t[a] * t[a]
+        for b in range(dim):
+            P = (1.0 if a == b else 0.0) - n[a] * n[b]
+            dt[a, b] = -kt * P - nv * H[a, b] - n[a] * Hv[b]
+    norm = np.sqrt(norm2)
+    limit = mu * p
+    status = STICK
+    if norm > limit:                          # Coulomb's return map: t = mu p e, e = t / |t|
+        status = SLIP
+        if norm > 0.0:
+            e = np.empty(3)
+            for a in range(dim):
+                e[a] = t[a] / norm
+            # d(mu p e) = mu e (dp) + mu p (I - e e^T) / |t| dt
+            proj = np.empty((3, 3))
+            for a in range(dim):
+                for b in range(dim):
+                    s = 0.0
+                    for c in range(dim):
+                        s += ((1.0 if a == c else 0.0) - e[a] * e[c]) * dt[c, b]
+                    proj[a, b] = s
+            for a in range(dim):
+                t[a] = limit * e[a]
+                for b in range(dim):
+                    dt[a, b] = mu * e[a] * (-kn * n[b]) + limit / norm * proj[a, b]
+        else:
+            for a in range(dim):
+                t[a] = 0.0
+                for b in range(dim):
+                    dt[a, b] = 0.0
+    for a in range(dim):
+        f[a] += area * t[a]
+        traction[a] = t[a]
+        for b in range(dim):
+            D[a, b] += area * dt[a, b]
+    return status, p
+
+
+@jit
+def corner_weights(node_index, S, G, half, W, offsets):
+    """Each domain corner's weights w_cI = S_Ip + G_Ip . r_c (W: (n,
+    corners, nn)) and offsets r_c (offsets: (n, corners, dim))."""
+    n, nn = S.shape
+    dim = half.shape[1]
+    corners = 1 << dim
+    for p in range(n):
+        for c in range(corners):
+            for a in range(dim):
+                offsets[p, c, a] = half[p, a] if (c >> a) & 1 else -half[p, a]
+            for k in range(nn):
+                w = S[p, k]
+                for a in range(dim):
+                    w += G[p, k, a] * offsets[p, c, a]
+                W[p, c, k] = w
+
+
+@jit
+def corner_areas(kind, params, x, offsets, half, offset_end, axisymmetric, faces, area):
+    """Each corner's share of its particle's surface facing the tool: the
+    domain's area projected on the plane normal to the tool's normal at the
+    corner's start, sum_i |n_i| A_i, over the 2^(dim-1) corners of a face;
+    times 2 pi r in axisymmetry (in-plane lengths per unit thickness in
+    plane strain and stress). Fixed over the step."""
+    n_particles, corners, dim = offsets.shape
+    n = np.empty(3)
+    H = np.empty((3, 3))
+    y = np.empty(3)
+    face_area = np.empty(3)
+    for p in range(n_particles):
+        for a in range(dim):
+            face_area[a] = 1.0
+            for b in range(dim):
+                if b != a:
+                    face_area[a] *= 2.0 * half[p, b]
+        for c in range(corners):
+            for a in range(dim):
+                y[a] = x[p, a] + offsets[p, c, a] - offset_end[a]
+            tool_distance(kind, params, y, dim, n, H, faces[p])
+            s = 0.0
+            for a in range(dim):
+                s += abs(n[a]) * face_area[a]
+            s *= 2.0 / corners
+            if axisymmetric:
+                s *= 2.0 * np.pi * max(x[p, 0] + offsets[p, c, 0], 0.0)
+            area[p, c] = s
+
+
+@jit
+def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end, increment, history,
+                   area, faces, kn, kt, mu, friction, force_local, D, status, pressure, traction, slip_work):
+    """The contact term at the iterate ``u_local``: each corner's force on
+    the body scattered to its particle's nodes (added to ``force_local``),
+    and per corner its derivative ``D`` (n, corners, dim, dim), status,
+    pressure, traction on the body and the frictional work t . slip a over
+    the step (``slip_work``). Returns the number of corners in contact."""
+    n_particles, corners, nn = W.shape
+    dim = x.shape[1]
+    y = np.empty(3)
+    slip = np.empty(3)
+    f = np.empty(3)
+    t = np.empty(3)
+    touching = 0
+    for p in range(n_particles):
+        for c in range(corners):
+            for a in range(dim):
+                du = 0.0
+                for k in range(nn):
+                    du += W[p, c, k] * u_local[node_index[p, k], a]
+                y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
+                slip[a] = du - increment[a]
+            s, pr = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, kt, mu,
+                                  friction, dim, f, D[p, c], t, faces[p])
+            status[p, c] = s
+            pressure[p, c] = pr
+            work = 0.0
+            for a in range(dim):
+                traction[p, c, a] = t[a]
+                work += t[a] * slip[a]
+            slip_work[p, c] = area[p, c] * work      # the friction's work on the body over the step
+            if s == OPEN:
+                continue
+            touching += 1
+            for k in range(nn):
+                w = W[p, c, k]
+                if w == 0.0:
+                    continue
+                i = node_index[p, k]
+                for a in range(dim):
+                    force_local[i, a] += w * f[a]
+    return touching
+
+
+@jit
+def contact_blocks(node_index, active, W, D, status, node_ijk, width, indptr, slot_position, values):
+    """Add the contact tangent -sum_c w_cI D_c w_cJ (the residual's
+    derivative: the force on the body enters it with a minus sign) of every
+    particle with a corner in contact into the step pattern's ``values``."""
+    n_particles, corners, nn = W.shape
+    dim = D.shape[2]
+    K = np.zeros((nn, dim, nn, dim))
+    used = np.zeros((nn, nn), dtype=np.bool_)
+    nodes = np.empty(nn, dtype=np.int64)
+    for p in range(n_particles):
+        any_contact = False
+        for c in range(corners):
+            if status[p, c] != OPEN:
+                any_contact = True
+                for k in range(nn):
+                    if not active[p, k]:
+                        continue
+                    for m in range(nn):
+                        if not active[p, m]:
+                            continue
+                        used[k, m] = True
+                        ww = W[p, c, k] * W[p, c, m]
+                        for a in range(dim):
+                            for b in range(dim):
+                                K[k, a, m, b] -= ww * D[p, c, a, b]
+        if any_contact:
+            for k in range(nn):
+                nodes[k] = node_index[p, k]
+            _add_group(False, nodes, K, used, node_ijk, width, indptr, slot_position, values, dim)
+
+
+@jit
+def contact_product(node_index, W, D, status, x_local, out_local):
+    """out_I += -sum_c w_cI D_c sum_J w_cJ x_J (the contact tangent times x)."""
+    n_particles, corners, nn = W.shape
+    dim = D.shape[2]
+    y = np.empty(3)
+    for p in range(n_particles):
+        for c in range(corners):
+            if status[p, c] == OPEN:
+                continue
+            for a in range(dim):
+                s = 0.0
+                for k in range(nn):
+                    s += W[p, c, k] * x_local[node_index[p, k], a]
+                y[a] = s
+            for k in range(nn):
+                w = W[p, c, k]
+                if w == 0.0:
+                    continue
+                i = node_index[p, k]
+                for a in range(dim):
+                    s = 0.0
+                    for b in range(dim):
+                        s += D[p, c, a, b] * y[b]
+                    out_local[i, a] -= w * s
+
+
+@jit
+def contact_diagonal(node_index, W, D, status, out_local):
+    """out_Ia += -sum_c w_cI^2 D_c[a, a] (the contact tangent's diagonal)."""
+    n_particles, corners, nn = W.shape
+    dim = D.shape[2]
+    for p in range(n_particles):
+        for c in range(corners):
+            if status[p, c] == OPEN:
+                continue
+            for k in range(nn):
+                w = W[p, c, k]
+                i = node_index[p, k]
+                for a in range(dim):
+                    out_local[i, a] -= w * w * D[p, c, a, a]

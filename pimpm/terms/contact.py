@@ -1,0 +1,208 @@
+"""A rigid tool in unilateral contact with the material, with or without
+Coulomb friction (``contact: frictionless`` or ``contact: friction``): it
+pushes and never pulls, the material slides along it, sticks to it while the
+tangential traction is below mu times the pressure, and lets go when it
+withdraws. Inside Newton, with the exact tangent.
+
+Contact is found at the body's true surface: the corners of the particles'
+domains, moved by the particles' own interpolation, against the tool's
+exact geometry (a signed distance: box, ball, cylinder, half-space). The
+normal condition is a penalty p = -k_n phi with k_n = contact_stiffness x
+(largest P-wave modulus) / h, so the tool penetrates the body by p h /
+(contact_stiffness M): 1/contact_stiffness of a cell at a pressure equal
+to the P-wave modulus. Friction is an elastic-slip penalty k_t = k_n with
+Coulomb's return map, its tangential traction carried from step to step
+with the particles. The kernels are in :mod:`pimpm.kernels.contact`.
+
+The tool moves as a bonded body does: its velocity times a function of
+time; its own particles only show it (they prescribe nothing)."""
+import numpy as np
+from mpi4py import MPI
+
+from ..functions import ONE, lookup
+from ..kernels import contact as kernels
+from .base import NodalTerm
+
+#: the particle fields the contact of tool ``i`` carries: the tangential traction of each corner
+TRACTION_FIELD = "contact_traction_{}"
+
+
+def geometry_code(geometry, dim, h):
+    """(kind, params) of :func:`pimpm.kernels.contact.tool_distance` for a
+    body's validated geometry (``h``: the cell size)."""
+    params = np.zeros(12)
+    params[11] = 1e-3 * h          # how far beyond a face's edge a point still meets the face
+    kind = geometry["type"]
+    if kind == "half_space":
+        params[:dim] = geometry["point"]
+        params[3:3 + dim] = geometry["normal"]
+        return kernels.HALF_SPACE, params
+    if kind == "box":
+        params[:dim] = geometry["lower"]
+        params[3:3 + dim] = geometry["upper"]
+        return kernels.BOX, params
+    if kind == "ball":
+        params[:dim] = geometry["center"]
+        params[6] = geometry["radius"]
+        return kernels.BALL, params
+    if kind == "cylinder":
+        params[:3] = geometry["lower"]
+        params[3:6] = geometry["upper"]
+        params[6] = geometry["radius"]
+        params[7] = "xyz".index(geometry["axis"])
+        params[8:11] = geometry["center"]
+        return kernels.CYLINDER, params
+    raise ValueError(f"no contact geometry for a {kind} tool")
+
+
+class ContactTool(NodalTerm):
+    #: the tangent of the contact term couples each particle's footprint nodes
+    couples_particles = True
+
+    def __init__(self, index, name, geometry, dim, h, velocity, stiffness, friction_coefficient=None,
+                 function=ONE, axisymmetric=False):
+        self.index = index
+        self.name = name
+        self.kind, self.params = geometry_code(geometry, dim, h)
+        self.dim = dim
+        self.velocity = np.asarray(velocity, dtype=float)
+        self.function = function
+        self.kn = self.kt = float(stiffness)         # penalty per unit area (normal, tangential)
+        self.friction = friction_coefficient is not None
+        self.mu = float(friction_coefficient or 0.0)
+        self.axisymmetric = axisymmetric
+        #: the tangent is symmetric without friction (the penalty has a potential)
+        self.symmetric_tangent = not self.friction
+        self.field = TRACTION_FIELD.format(index)
+        self.offset = np.zeros(dim)                  # the tool's displacement so far
+        self.dissipation = 0.0                       # the friction's work on the material so far, negated
+        self._increment = np.zeros(dim)
+        self._step = None
+        self._u = None
+        self.last = {}
+
+    @classmethod
+    def from_config(cls, index, body, config, functions=None):
+        dim = config["dim"]
+        grid = config["grid"]
+        h = min((u - lo) / n for lo, u, n in zip(grid["lower"], grid["upper"], grid["cells"]))
+        modulus = max(m["bulk_modulus"] + 4.0 / 3.0 * m["shear_modulus"]
+                      for m in config["materials"].values())
+        mu = body.get("friction_coefficient") if body["contact"] == "friction" else None
+        return cls(index, body["name"], body["geometry"], dim, h, body["velocity"],
+                   body["contact_stiffness"] * modulus / h, mu, lookup(functions or {}, body.get("function")),
+                   axisymmetric=config["kinematics"] == "axisymmetric")
+
+    # ----------------------------------------------------------------- the step
+    def begin_step(self, context):
+        self._increment = self.velocity * self.function.integral(context.time, context.time + context.dt)
+        particles = context.particles
+        self._x = particles["x"]
+        self._half = context.half_sizes()
+        self._history = particles[self.field]
+        self._step = None
+        self._u = None
+
+    def begin_newton(self, state):
+        """The corners' weights, offsets and areas on the step's footprint
+        (after the weak-node extension changed it)."""
+        n, nn = state.S.shape
+        corners = 1 << self.dim
+        W = np.empty((n, corners, nn))
+        offsets = np.empty((n, corners, self.dim))
+        kernels.corner_weights(state.node_index, state.S, state.G, self._half, W, offsets)
+        area = np.empty((n, corners))
+        faces = np.empty(n, dtype=np.int64)
+        kernels.contact_faces(self.kind, self.params, self._x, self.offset + self._increment, faces)
+        kernels.corner_areas(self.kind, self.params, self._x, offsets, self._half,
+                             self.offset + self._increment, self.axisymmetric, faces, area)
+        self._faces = faces
+        self._step = (state, W, offsets, area)
+        self._u = None
+
+    def _evaluate(self, u_local, n_nodes):
+        """The corners at the iterate ``u_local`` (local; cached per iterate)."""
+        if self._u is not None and np.array_equal(self._u, u_local):
+            return self._local
+        state, W, offsets, area = self._step
+        n, corners = area.shape
+        force = np.zeros((n_nodes, self.dim))
+        D = np.empty((n, corners, self.dim, self.dim))
+        status = np.empty((n, corners), dtype=np.int8)
+        pressure = np.empty((n, corners))
+        traction = np.empty((n, corners, self.dim))
+        work = np.empty((n, corners))
+        touching = kernels.contact_forces(self.kind, self.params, state.node_index, W, self._x, offsets,
+                                          u_local, self.offset + self._increment, self._increment,
+                                          self._history, area, self._faces, self.kn, self.kt, self.mu, self.friction,
+                                          force, D, status, pressure, traction, work)
+        self._local = {"force": force, "D": D, "status": status, "pressure": pressure,
+                       "traction": traction, "work": work, "touching": touching}
+        self._u = u_local.copy()
+        return self._local
+
+    def add_residual(self, u_owned, u_local, residual, grid):
+        """The force on the body enters the residual as an external force
+        does (-f). Collective."""
+        local = self._evaluate(u_local, grid.n_local_nodes)
+        residual -= grid.sum_to_owned(local["force"])
+
+    def add_jacobian_values(self, u_local, grid, pattern, values):
+        local = self._evaluate(u_local, grid.n_local_nodes)
+        state, W = self._step[0], self._step[1]
+        kernels.contact_blocks(state.node_index, state.active, W, local["D"], local["status"],
+                               grid.ghost_ijk, pattern.width, pattern.indptr, pattern.slot_position,
+                               values)
+
+    def add_product(self, u_local, grid, x_local, out_local):
+        local = self._evaluate(u_local, grid.n_local_nodes)
+        state, W = self._step[0], self._step[1]
+        kernels.contact_product(state.node_index, W, local["D"], local["status"], x_local, out_local)
+
+    def add_diagonal(self, u_local, grid, out_local):
+        local = self._evaluate(u_local, grid.n_local_nodes)
+        state, W = self._step[0], self._step[1]
+        kernels.contact_diagonal(state.node_index, W, local["D"], local["status"], out_local)
+
+    def increment(self):
+        return self._increment
+
+    def particle_displacement(self, rigid):
+        return np.where((rigid["body"] == self.index)[:, None], self._increment, 0.0)
+
+    # ----------------------------------------------------------------- after convergence
+    def report(self, forces, comm):
+        """The converged step's contact force on the material (into
+        ``forces``, by name) and its summary: normal and tangential force,
+        contact area, corners in contact (``self.last``). Collective."""
+        local = self._local
+        area = self._step[3]
+        touching = local["status"] != kernels.OPEN
+        n_force = np.sum(area * local["pressure"])
+        t_force = np.sum(area[..., None] * local["traction"], axis=(0, 1))
+        # this rank's corners' force on the body: the weights of a corner sum to one
+        # (partition of unity), so the sum over its local nodes is the sum over its corners
+        total = np.sum(local["force"], axis=0)
+        dim = self.dim
+        sums = comm.allreduce(np.concatenate([
+            total, [n_force, float(np.sum(area[touching])), float(np.sum(touching)),
+                    float(np.sum(local["work"]))], t_force]), op=MPI.SUM)
+        forces[self.name] = sums[:dim]
+        self.last = {"normal_force": float(sums[dim]), "contact_area": float(sums[dim + 1]),
+                     "contact_points": int(round(sums[dim + 2])),
+                     "tangential_force": float(np.linalg.norm(sums[dim + 4:])),
+                     "step_dissipation": -float(sums[dim + 3])}
+
+    def commit(self, particles):
+        """The converged step: the tool moves on, the corners keep their
+        tangential traction (particle order is the step's: before migration)."""
+        particles[self.field] = self._local["traction"].copy()
+        self.offset = self.offset + self._increment
+        self.dissipation += self.last.get("step_dissipation", 0.0)
+
+    def state(self):
+        return {"offset": [float(v) for v in self.offset], "dissipation": self.dissipation}
+
+    def restore(self, state):
+        self.offset = np.asarray(state["offset"], dtype=float)
+        self.dissipation = float(state.get("dissipation", 0.0))
