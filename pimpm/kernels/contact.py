@@ -4,7 +4,8 @@ signed distance, the contact law at one point, and the contact term's force,
 tangent blocks and matrix-free product over the particles' domain corners.
 
 Where contact acts. Each particle's domain (GIMP's box of half sizes l_p,
-convected by F) has 2^dim corners x_p + r_c, r_c = (+-l_1, +-l_2(, +-l_3)).
+convected by the diagonal of F) has 2^dim corners x_p + r_c, r_c = (+-l_1,
++-l_2(, +-l_3)).
 Over the step a corner moves with the particle's own interpolation, to
 first order about x_p (the domain deforms with F_inc, as the particle's
 stress does):
@@ -15,8 +16,9 @@ so the corner lies where the body's surface lies, and its weights touch
 only the particle's own footprint nodes: the contact tangent adds no
 nonzero to the step's pattern. A corner inside the tool (signed distance
 phi < 0) carries the penalty pressure p = -k_n phi over its share a_c of
-the particle's surface; tangentially an elastic-slip penalty k_t with
-Coulomb's return map (|t| <= mu p: stick; otherwise slip, t = mu p e).
+the particle's surface; tangentially Coulomb's law (|t| <= mu p: stick;
+otherwise slip, t = mu p e) regularized by an elastic slip of at most a
+thousandth of a cell (:func:`contact_point`).
 """
 import numpy as np
 
@@ -233,21 +235,32 @@ def contact_faces(kind, params, x, offset_end, faces):
 
 
 @jit
-def contact_point(kind, params, y, slip, history, area, kn, kt, mu, friction, dim, f, D, traction,
-                  face=-1):
+def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction, dim, f, D, traction,
+                  elastic, face=-1):
     """The contact law at one point: the force ``f`` on the body (dim), its
-    derivative ``D`` = df/dy (dim x dim), the traction on the body
-    ``traction`` (dim) and the status (OPEN, STICK, SLIP), for the point at
-    ``y`` (relative to the tool at rest), having slipped ``slip`` relative
-    to the tool over the step, with the tangential traction ``history`` of
-    the last step; ``area``: its share of the surface. Returns (status,
-    pressure)."""
+    derivative ``D`` = df/dy (dim x dim), the tangential traction on the
+    body ``traction`` (dim) and the status (OPEN, STICK, SLIP), for the point
+    at ``y`` (relative to the tool at rest) that has moved ``slip`` relative
+    to the tool over the step; ``area``: its share of the surface.
+
+    Normal: the penalty p = -kn phi. Tangential (``friction``): Coulomb's law
+    regularized by an elastic slip s_e of at most ``stick`` (a length): the
+    trial s = P (history + slip) (``history``: the last step's s_e; P = I -
+    n n^T); while |s| <= stick the point sticks, t = -(mu p / stick) s, else
+    it slips, t = -mu p s / |s|. The tangential stiffness scales with the
+    pressure, so whether a point sticks is decided on a length (a thousandth
+    of a cell), not on a traction divided by a penalty stiffness: at the
+    small pressures of a block under its own weight the latter is 1e-11 m,
+    below what Newton's iterates can resolve. The elastic slip is carried
+    (``elastic``, the next step's ``history``), so a sticking point does not
+    creep. Returns (status, pressure)."""
     n = np.empty(3)
     H = np.empty((3, 3))
     phi = tool_distance(kind, params, y, dim, n, H, face)
     for a in range(dim):
         f[a] = 0.0
         traction[a] = 0.0
+        elastic[a] = 0.0
         for b in range(dim):
             D[a, b] = 0.0
     if not phi < 0.0:
@@ -259,52 +272,49 @@ def contact_point(kind, params, y, slip, history, area, kn, kt, mu, friction, di
             D[a, b] = area * (-kn * n[a] * n[b] + p * H[a, b])
     if not friction:
         return SLIP, p
-    # trial tangential traction t = P (history - kt slip), P = I - n n^T, and its
-    # derivative: dP v/dy = -kt P - (n.v) H - n (H v)^T (v = history - kt slip)
+    # trial elastic slip s = P v, v = history + slip (dv/dy = I), and
+    # ds/dy = P - (n.v) H - n (H v)^T
     v = np.empty(3)
     nv = 0.0
     for a in range(dim):
-        v[a] = history[a] - kt * slip[a]
+        v[a] = history[a] + slip[a]
         nv += n[a] * v[a]
     Hv = np.zeros(3)
     for a in range(dim):
         for b in range(dim):
             Hv[a] += H[a, b] * v[b]
-    t = np.empty(3)
-    dt = np.empty((3, 3))
+    s = np.empty(3)
+    ds = np.empty((3, 3))
     norm2 = 0.0
     for a in range(dim):
-        t[a] = v[a] - n[a] * nv
-        norm2 += t[a] * t[a]
+        s[a] = v[a] - n[a] * nv
+        norm2 += s[a] * s[a]
         for b in range(dim):
-            P = (1.0 if a == b else 0.0) - n[a] * n[b]
-            dt[a, b] = -kt * P - nv * H[a, b] - n[a] * Hv[b]
+            ds[a, b] = (1.0 if a == b else 0.0) - n[a] * n[b] - nv * H[a, b] - n[a] * Hv[b]
     norm = np.sqrt(norm2)
-    limit = mu * p
-    status = STICK
-    if norm > limit:                          # Coulomb's return map: t = mu p e, e = t / |t|
+    t = np.empty(3)
+    dt = np.empty((3, 3))
+    if norm <= stick:                         # stick: t = -k s, k = mu p / stick
+        status = STICK
+        k = mu * p / stick
+        for a in range(dim):
+            t[a] = -k * s[a]
+            elastic[a] = s[a]
+            for b in range(dim):
+                dt[a, b] = -k * ds[a, b] + s[a] * mu * kn * n[b] / stick
+    else:                                     # slip: t = -mu p e, e = s / |s|
         status = SLIP
-        if norm > 0.0:
-            e = np.empty(3)
-            for a in range(dim):
-                e[a] = t[a] / norm
-            # d(mu p e) = mu e (dp) + mu p (I - e e^T) / |t| dt
-            proj = np.empty((3, 3))
-            for a in range(dim):
-                for b in range(dim):
-                    s = 0.0
-                    for c in range(dim):
-                        s += ((1.0 if a == c else 0.0) - e[a] * e[c]) * dt[c, b]
-                    proj[a, b] = s
-            for a in range(dim):
-                t[a] = limit * e[a]
-                for b in range(dim):
-                    dt[a, b] = mu * e[a] * (-kn * n[b]) + limit / norm * proj[a, b]
-        else:
-            for a in range(dim):
-                t[a] = 0.0
-                for b in range(dim):
-                    dt[a, b] = 0.0
+        e = np.empty(3)
+        for a in range(dim):
+            e[a] = s[a] / norm
+            t[a] = -mu * p * e[a]
+            elastic[a] = stick * e[a]
+        for a in range(dim):
+            for b in range(dim):
+                proj = 0.0
+                for c in range(dim):
+                    proj += ((1.0 if a == c else 0.0) - e[a] * e[c]) * ds[c, b]
+                dt[a, b] = mu * kn * e[a] * n[b] - mu * p / norm * proj
     for a in range(dim):
         f[a] += area * t[a]
         traction[a] = t[a]
@@ -315,8 +325,15 @@ def contact_point(kind, params, y, slip, history, area, kn, kt, mu, friction, di
 
 @jit
 def corner_weights(node_index, S, G, half, W, offsets):
-    """Each domain corner's weights w_cI = S_Ip + G_Ip . r_c (W: (n,
-    corners, nn)) and offsets r_c (offsets: (n, corners, dim))."""
+    """Each domain corner's offset r_c = (+-l_1, +-l_2(, +-l_3)) from the
+    particle (offsets: (n, corners, dim); ``half``: the GIMP domain's half
+    sizes, convected by the diagonal of F) and weights w_cI = S_Ip + G_Ip .
+    r_c (W: (n, corners, nn)). (Corners r_c = F r0 of the whole F were
+    tried: they follow a corner exactly from step to step, but the top row
+    of a square compressed by a plate then shears (F_yx up to 0.03) and the
+    unloading fails; with friction regularized on a length, the axis-aligned
+    domain's step-to-step offset F_xy l does not make a sticking corner
+    creep: it is the same at the start of every step.)"""
     n, nn = S.shape
     dim = half.shape[1]
     corners = 1 << dim
@@ -364,7 +381,8 @@ def corner_areas(kind, params, x, offsets, half, offset_end, axisymmetric, faces
 
 @jit
 def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end, increment, history,
-                   area, faces, kn, kt, mu, friction, force_local, D, status, pressure, traction, slip_work):
+                   area, faces, kn, stick, mu, friction, force_local, D, status, pressure, traction, elastic,
+                   slip_work):
     """The contact term at the iterate ``u_local``: each corner's force on
     the body scattered to its particle's nodes (added to ``force_local``),
     and per corner its derivative ``D`` (n, corners, dim, dim), status,
@@ -385,8 +403,8 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
                     du += W[p, c, k] * u_local[node_index[p, k], a]
                 y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
                 slip[a] = du - increment[a]
-            s, pr = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, kt, mu,
-                                  friction, dim, f, D[p, c], t, faces[p])
+            s, pr = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, mu,
+                                  friction, dim, f, D[p, c], t, elastic[p, c], faces[p])
             status[p, c] = s
             pressure[p, c] = pr
             work = 0.0

@@ -10,8 +10,8 @@ exact geometry (a signed distance: box, ball, cylinder, half-space). The
 normal condition is a penalty p = -k_n phi with k_n = contact_stiffness x
 (largest P-wave modulus) / h, so the tool penetrates the body by p h /
 (contact_stiffness M): 1/contact_stiffness of a cell at a pressure equal
-to the P-wave modulus. Friction is an elastic-slip penalty k_t = k_n with
-Coulomb's return map, its tangential traction carried from step to step
+to the P-wave modulus. Friction is Coulomb's law regularized by an
+elastic slip of at most a thousandth of a cell, carried from step to step
 with the particles. The kernels are in :mod:`pimpm.kernels.contact`.
 
 The tool moves as a bonded body does: its velocity times a function of
@@ -23,8 +23,10 @@ from ..functions import ONE, lookup
 from ..kernels import contact as kernels
 from .base import NodalTerm
 
-#: the particle fields the contact of tool ``i`` carries: the tangential traction of each corner
-TRACTION_FIELD = "contact_traction_{}"
+#: the particle field the contact of tool ``i`` carries: each corner's elastic slip
+SLIP_FIELD = "contact_slip_{}"
+#: the elastic slip a sticking point may take, in cells (pimpm.kernels.contact.contact_point)
+STICK_SLIP = 1e-3
 
 
 def geometry_code(geometry, dim, h):
@@ -67,13 +69,14 @@ class ContactTool(NodalTerm):
         self.dim = dim
         self.velocity = np.asarray(velocity, dtype=float)
         self.function = function
-        self.kn = self.kt = float(stiffness)         # penalty per unit area (normal, tangential)
+        self.kn = float(stiffness)                   # the normal penalty per unit area
+        self.stick = STICK_SLIP * h                  # the elastic slip of a sticking point
         self.friction = friction_coefficient is not None
         self.mu = float(friction_coefficient or 0.0)
         self.axisymmetric = axisymmetric
         #: the tangent is symmetric without friction (the penalty has a potential)
         self.symmetric_tangent = not self.friction
-        self.field = TRACTION_FIELD.format(index)
+        self.field = SLIP_FIELD.format(index)
         self.offset = np.zeros(dim)                  # the tool's displacement so far
         self.dissipation = 0.0                       # the friction's work on the material so far, negated
         self._increment = np.zeros(dim)
@@ -131,13 +134,14 @@ class ContactTool(NodalTerm):
         status = np.empty((n, corners), dtype=np.int8)
         pressure = np.empty((n, corners))
         traction = np.empty((n, corners, self.dim))
+        elastic = np.empty((n, corners, self.dim))
         work = np.empty((n, corners))
         touching = kernels.contact_forces(self.kind, self.params, state.node_index, W, self._x, offsets,
                                           u_local, self.offset + self._increment, self._increment,
-                                          self._history, area, self._faces, self.kn, self.kt, self.mu, self.friction,
-                                          force, D, status, pressure, traction, work)
+                                          self._history, area, self._faces, self.kn, self.stick, self.mu,
+                                          self.friction, force, D, status, pressure, traction, elastic, work)
         self._local = {"force": force, "D": D, "status": status, "pressure": pressure,
-                       "traction": traction, "work": work, "touching": touching}
+                       "traction": traction, "elastic": elastic, "work": work, "touching": touching}
         self._u = u_local.copy()
         return self._local
 
@@ -195,8 +199,8 @@ class ContactTool(NodalTerm):
 
     def commit(self, particles):
         """The converged step: the tool moves on, the corners keep their
-        tangential traction (particle order is the step's: before migration)."""
-        particles[self.field] = self._local["traction"].copy()
+        elastic slip (particle order is the step's: before migration)."""
+        particles[self.field] = self._local["elastic"].copy()
         self.offset = self.offset + self._increment
         self.dissipation += self.last.get("step_dissipation", 0.0)
 
