@@ -122,12 +122,14 @@ class Simulation:
         self._make_solver()
 
     def _add_term_fields(self):
-        """The particle fields the contact tools carry from step to step (the
-        tangential traction at each domain corner), zero where a run starts."""
+        """The particle fields the contact tools carry from step to step (each
+        domain corner's elastic slip and whether it touched), zero where a run starts."""
+        corners = 1 << self.dim
         for term in self.terms:
             field = getattr(term, "field", None)
             if field is not None and field not in self.particles:
-                self.particles[field] = np.zeros((len(self.particles), 1 << self.dim, self.dim))
+                self.particles[field] = np.zeros((len(self.particles), corners, self.dim))
+                self.particles[term.touching_field] = np.zeros((len(self.particles), corners), dtype=np.int8)
 
     def _restore(self, checkpoint):
         """The state of a checkpoint: particles (on the same number of ranks,

@@ -237,3 +237,22 @@ def test_the_plate_gives_the_same_answer_on_two_ranks(tmp_path):
             histories.append([float(r["plate_force_y"]) for r in csv.DictReader(f)])
     a, b = np.array(histories[0]), np.array(histories[1])
     assert np.max(np.abs(a - b)) <= 1e-8 * np.max(np.abs(a))
+
+
+def test_friction_onset_sticks_until_mu_n_then_accelerates():
+    """Benchmark 2 (Kratos's friction_tests/conforming): pressed by 1000 N,
+    pulled by 300 t N, mu = 0.3, Newmark at dt = 0.1 s: the block sticks
+    (it moves only its elastic slip, 1e-3 of a cell) until t = 1 s and slips
+    from the next step on; at t = 2 s its velocity is 0.15 m/s within 2% and
+    it has slipped 0.05 m within 3%; the normal force stays 1000 N; no step
+    is cut."""
+    sim, stats, rows = _run(f"{REPO}/inputs/friction_onset.yaml")
+    assert stats.cuts == 0 and stats.failure is None
+    stick = 1e-3 * 0.25
+    onset = next(r["time"] for r in rows if r["mean_x"] > 1.5 * stick)
+    assert onset == pytest.approx(1.1)                     # the first step after t = 1 s
+    p = sim.particles
+    v = sim.comm.allreduce(float(np.sum(p["mass"] * p["v"][:, 0]))) / sim.mass0
+    assert v == pytest.approx(0.15, rel=0.02)
+    assert rows[-1]["mean_x"] - stick == pytest.approx(0.05, rel=0.03)
+    assert all(abs(r["force"][1] - 1000.0) < 1.0 for r in rows)

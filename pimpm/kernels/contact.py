@@ -26,7 +26,9 @@ from .jit import jit, jit_inline
 from .particle_step import _add_group
 
 HALF_SPACE, BOX, BALL, CYLINDER = 0, 1, 2, 3
-OPEN, STICK, SLIP = 0, 1, 2
+#: a point's state; HELD: open, but in contact at the end of the last step and
+#: within ``stick`` of the tool (the first Newton iteration keeps its stiffness)
+OPEN, STICK, SLIP, HELD = 0, 1, 2, 3
 
 
 @jit_inline
@@ -236,7 +238,7 @@ def contact_faces(kind, params, x, offset_end, faces):
 
 @jit
 def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction, dim, f, D, traction,
-                  elastic, face=-1):
+                  elastic, face=-1, hold=False):
     """The contact law at one point: the force ``f`` on the body (dim), its
     derivative ``D`` = df/dy (dim x dim), the tangential traction on the
     body ``traction`` (dim) and the status (OPEN, STICK, SLIP), for the point
@@ -253,7 +255,12 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
     small pressures of a block under its own weight the latter is 1e-11 m,
     below what Newton's iterates can resolve. The elastic slip is carried
     (``elastic``, the next step's ``history``), so a sticking point does not
-    creep. Returns (status, pressure)."""
+    creep. ``hold``: the point was in contact at the end of the last step;
+    if it is open now but within ``stick`` of the tool, D gets the penalty's
+    normal stiffness -kn a n n^T all the same (status HELD, no force): the
+    first Newton iteration of a step, whose predictor may lift a resting
+    corner off the tool by round-off, then does not throw the body away.
+    Returns (status, pressure)."""
     n = np.empty(3)
     H = np.empty((3, 3))
     phi = tool_distance(kind, params, y, dim, n, H, face)
@@ -263,7 +270,12 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
         elastic[a] = 0.0
         for b in range(dim):
             D[a, b] = 0.0
-    if not phi < 0.0:
+    if not phi <= 0.0:                        # touching (phi = 0, as placed on a tool) is in contact
+        if hold and phi < stick:
+            for a in range(dim):
+                for b in range(dim):
+                    D[a, b] = -area * kn * n[a] * n[b]
+            return HELD, 0.0
         return OPEN, 0.0
     p = -kn * phi                             # the penalty pressure, dp/dy = -kn n
     for a in range(dim):
@@ -381,8 +393,8 @@ def corner_areas(kind, params, x, offsets, half, offset_end, axisymmetric, faces
 
 @jit
 def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end, increment, history,
-                   area, faces, kn, stick, mu, friction, force_local, D, status, pressure, traction, elastic,
-                   slip_work):
+                   area, faces, kn, stick, mu, friction, held, force_local, D, status, pressure, traction,
+                   elastic, slip_work):
     """The contact term at the iterate ``u_local``: each corner's force on
     the body scattered to its particle's nodes (added to ``force_local``),
     and per corner its derivative ``D`` (n, corners, dim, dim), status,
@@ -404,7 +416,7 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
                 y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
                 slip[a] = du - increment[a]
             s, pr = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, mu,
-                                  friction, dim, f, D[p, c], t, elastic[p, c], faces[p])
+                                  friction, dim, f, D[p, c], t, elastic[p, c], faces[p], held[p, c])
             status[p, c] = s
             pressure[p, c] = pr
             work = 0.0
@@ -412,7 +424,7 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
                 traction[p, c, a] = t[a]
                 work += t[a] * slip[a]
             slip_work[p, c] = area[p, c] * work      # the friction's work on the body over the step
-            if s == OPEN:
+            if s == OPEN or s == HELD:
                 continue
             touching += 1
             for k in range(nn):
@@ -429,7 +441,7 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
 def contact_blocks(node_index, active, W, D, status, node_ijk, width, indptr, slot_position, values):
     """Add the contact tangent -sum_c w_cI D_c w_cJ (the residual's
     derivative: the force on the body enters it with a minus sign) of every
-    particle with a corner in contact into the step pattern's ``values``."""
+    particle with a corner in contact (or HELD) into the step pattern's ``values``."""
     n_particles, corners, nn = W.shape
     dim = D.shape[2]
     K = np.zeros((nn, dim, nn, dim))

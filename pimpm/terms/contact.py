@@ -23,8 +23,10 @@ from ..functions import ONE, lookup
 from ..kernels import contact as kernels
 from .base import NodalTerm
 
-#: the particle field the contact of tool ``i`` carries: each corner's elastic slip
+#: the particle fields the contact of tool ``i`` carries: each corner's elastic
+#: slip, and whether it was in contact at the end of the last step
 SLIP_FIELD = "contact_slip_{}"
+TOUCHING_FIELD = "contact_touching_{}"
 #: the elastic slip a sticking point may take, in cells (pimpm.kernels.contact.contact_point)
 STICK_SLIP = 1e-3
 
@@ -77,6 +79,7 @@ class ContactTool(NodalTerm):
         #: the tangent is symmetric without friction (the penalty has a potential)
         self.symmetric_tangent = not self.friction
         self.field = SLIP_FIELD.format(index)
+        self.touching_field = TOUCHING_FIELD.format(index)
         self.offset = np.zeros(dim)                  # the tool's displacement so far
         self.dissipation = 0.0                       # the friction's work on the material so far, negated
         self._increment = np.zeros(dim)
@@ -103,6 +106,7 @@ class ContactTool(NodalTerm):
         self._x = particles["x"]
         self._half = context.half_sizes()
         self._history = particles[self.field]
+        self._touching = particles[self.touching_field]
         self._step = None
         self._u = None
 
@@ -122,6 +126,9 @@ class ContactTool(NodalTerm):
         self._faces = faces
         self._step = (state, W, offsets, area)
         self._u = None
+        # the first Jacobian holds the corners that were touching (kernels.contact.HELD)
+        self._held = self._touching.astype(bool)
+        self._holding = bool(np.any(self._held))
 
     def _evaluate(self, u_local, n_nodes):
         """The corners at the iterate ``u_local`` (local; cached per iterate)."""
@@ -136,10 +143,12 @@ class ContactTool(NodalTerm):
         traction = np.empty((n, corners, self.dim))
         elastic = np.empty((n, corners, self.dim))
         work = np.empty((n, corners))
+        held = self._held if self._holding else np.zeros_like(self._held)
         touching = kernels.contact_forces(self.kind, self.params, state.node_index, W, self._x, offsets,
                                           u_local, self.offset + self._increment, self._increment,
                                           self._history, area, self._faces, self.kn, self.stick, self.mu,
-                                          self.friction, force, D, status, pressure, traction, elastic, work)
+                                          self.friction, held, force, D, status, pressure, traction, elastic,
+                                          work)
         self._local = {"force": force, "D": D, "status": status, "pressure": pressure,
                        "traction": traction, "elastic": elastic, "work": work, "touching": touching}
         self._u = u_local.copy()
@@ -151,19 +160,29 @@ class ContactTool(NodalTerm):
         local = self._evaluate(u_local, grid.n_local_nodes)
         residual -= grid.sum_to_owned(local["force"])
 
+    def _first_jacobian_done(self):
+        """Holding is for the step's first Jacobian only: later iterates are
+        evaluated without it (the residual never depends on it)."""
+        if self._holding:
+            self._holding = False
+            self._u = None
+
     def add_jacobian_values(self, u_local, grid, pattern, values):
         local = self._evaluate(u_local, grid.n_local_nodes)
         state, W = self._step[0], self._step[1]
         kernels.contact_blocks(state.node_index, state.active, W, local["D"], local["status"],
                                grid.ghost_ijk, pattern.width, pattern.indptr, pattern.slot_position,
                                values)
+        self._first_jacobian_done()
 
     def add_product(self, u_local, grid, x_local, out_local):
+        self._first_jacobian_done()          # the matrix-free product is always the exact one
         local = self._evaluate(u_local, grid.n_local_nodes)
         state, W = self._step[0], self._step[1]
         kernels.contact_product(state.node_index, W, local["D"], local["status"], x_local, out_local)
 
     def add_diagonal(self, u_local, grid, out_local):
+        self._first_jacobian_done()
         local = self._evaluate(u_local, grid.n_local_nodes)
         state, W = self._step[0], self._step[1]
         kernels.contact_diagonal(state.node_index, W, local["D"], local["status"], out_local)
@@ -181,7 +200,7 @@ class ContactTool(NodalTerm):
         contact area, corners in contact (``self.last``). Collective."""
         local = self._local
         area = self._step[3]
-        touching = local["status"] != kernels.OPEN
+        touching = local["pressure"] > 0.0
         n_force = np.sum(area * local["pressure"])
         t_force = np.sum(area[..., None] * local["traction"], axis=(0, 1))
         # this rank's corners' force on the body: the weights of a corner sum to one
@@ -201,6 +220,8 @@ class ContactTool(NodalTerm):
         """The converged step: the tool moves on, the corners keep their
         elastic slip (particle order is the step's: before migration)."""
         particles[self.field] = self._local["elastic"].copy()
+        particles[self.touching_field] = ((self._local["status"] == kernels.STICK)
+                                          | (self._local["status"] == kernels.SLIP)).astype(np.int8)
         self.offset = self.offset + self._increment
         self.dissipation += self.last.get("step_dissipation", 0.0)
 

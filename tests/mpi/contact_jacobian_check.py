@@ -74,6 +74,7 @@ solver.prepare(state)
 X = solver.X.duplicate()
 X.getArray()[:] = implicit_step.initial_guess(sim, state)
 R = solver.R.duplicate()
+term._holding = False          # the exact tangent (not the first iteration's held corners)
 problem.form_residual(None, X, R)
 problem.form_jacobian(None, X, solver.J, solver.J)
 status = term._local["status"]
