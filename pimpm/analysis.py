@@ -114,7 +114,8 @@ class HistoryObserver(Observer):
     def __init__(self, sim, path, restart=False):
         self.history = History(sim.comm, path, [b.name for b in sim.rigid_bodies], sim.dim,
                                continue_after=sim.step_index if restart else None,
-                               load_names=[load.name for load in sim.loads])
+                               load_names=[load.name for load in sim.loads],
+                               contact_names=[t.name for t in sim.contact_tools])
 
     def step(self, analysis, info):
         self.history.write(info)
@@ -265,6 +266,8 @@ def progress_line(info, rigid_names):
     forces = " ".join(f"{name} F=(" + ", ".join(f"{f:.4e}" for f in info["forces"][name]) + ")"
                       for name in rigid_names)
     notes = ""
+    for name, contact in info.get("contact", {}).items():
+        notes += f"  {name} contact {contact['contact_points']}"
     if info["backtracks"] > 0:
         notes += f"  backtracks {info['backtracks']}"
     if info["linear_fallbacks"]:

@@ -9,7 +9,12 @@
   dissipated, or gained numerically if it grows);
 * ``newton.png``: Newton iterations, the initial and final residual norms
   per step;
-* ``dt.png``: the time step per step (step cuts show as dips).
+* ``dt.png``: the time step per step (step cuts show as dips);
+* ``contact.png`` (runs with tools in unilateral contact): each tool's
+  normal and tangential force, and its contact area (length in 2D), against
+  time. With contact, the energy balance also adds the frictional
+  dissipation back (total - external work + dissipation: zero but for the
+  integrator's own error and the penalty's stored energy).
 
 Serial; reads nothing but ``history.csv``, so it works on a run in progress,
 an interrupted one, or a copy of the file. A missing or unreadable history
@@ -145,7 +150,12 @@ def plot(outdir, into=None):
     ax.grid(alpha=0.3)
     ax.legend()
     balance.plot(time, [e - w for e, w in zip(data["total_energy"], data["external_work"])],
-                 color="C4")
+                 color="C4", label="total - external work")
+    if "frictional_dissipation" in data:
+        balance.plot(time, [e - w + d for e, w, d in zip(data["total_energy"], data["external_work"],
+                                                          data["frictional_dissipation"])],
+                     color="C5", label="... + frictional dissipation")
+        balance.legend()
     balance.axhline(0.0, color="0.5", lw=0.8)
     balance.set_ylabel("total - external work")
     balance.set_xlabel("time")
@@ -169,6 +179,23 @@ def plot(outdir, into=None):
     bottom.grid(alpha=0.3, which="both")
     fig.tight_layout()
     save(fig, "newton.png")
+
+    tools = [c[:-len("_contact_area")] for c in columns if c.endswith("_contact_area")]
+    if tools:
+        fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+        for name in tools:
+            top.plot(time, data[f"{name}_normal_force"], "-", label=f"{name} normal")
+            top.plot(time, data[f"{name}_tangential_force"], "--", label=f"{name} tangential")
+            bottom.plot(time, data[f"{name}_contact_area"], ".-", ms=3, label=name)
+        top.set_ylabel("contact force")
+        top.set_title(f"{title}: contact")
+        top.legend()
+        top.grid(alpha=0.3)
+        bottom.set_ylabel("contact area (length in 2D)")
+        bottom.set_xlabel("time")
+        bottom.grid(alpha=0.3)
+        fig.tight_layout()
+        save(fig, "contact.png")
 
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.plot(step, data["dt"], ".-", ms=3)

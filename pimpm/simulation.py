@@ -130,6 +130,8 @@ class Simulation:
             if field is not None and field not in self.particles:
                 self.particles[field] = np.zeros((len(self.particles), corners, self.dim))
                 self.particles[term.touching_field] = np.zeros((len(self.particles), corners), dtype=np.int8)
+                self.particles[term.output_fields[0]] = np.zeros(len(self.particles), dtype=np.int8)
+                self.particles[term.output_fields[1]] = np.zeros((len(self.particles), self.dim))
 
     def _restore(self, checkpoint):
         """The state of a checkpoint: particles (on the same number of ranks,
@@ -366,6 +368,9 @@ class Simulation:
                     load_forces={load.name: load.resultant(self.time) for load in self.loads},
                     load_displacements={load.name: load_displacement(load, self.particles, self.comm)
                                         for load in self.loads})
+        if self.contact_tools:
+            info.update(contact={t.name: dict(t.last) for t in self.contact_tools},
+                        frictional_dissipation=sum(t.dissipation for t in self.contact_tools))
         kinetic, stored = energy.energies(self.particles, self.material_table(), self.comm)
         info.update(forces=forces, external_work=self.work.total,
                     kinetic_energy=kinetic, strain_energy=stored,

@@ -26,7 +26,7 @@ REPO = os.path.dirname(HERE)
 # ----------------------------------------------------------------- the contact law
 def _point(kind, params, y, slip, history, friction, dim, mu=0.3):
     f, D, t, elastic = np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros(3)
-    status, _ = kernels.contact_point(kind, params, y, slip, history, 0.7, 1e3, 5.0, mu, friction,
+    status, _, _ = kernels.contact_point(kind, params, y, slip, history, 0.7, 1e3, 5.0, mu, friction,
                                       dim, f, D, t, elastic)
     return status, f[:dim].copy(), D[:dim, :dim].copy()
 
@@ -256,3 +256,30 @@ def test_friction_onset_sticks_until_mu_n_then_accelerates():
     assert v == pytest.approx(0.15, rel=0.02)
     assert rows[-1]["mean_x"] - stick == pytest.approx(0.05, rel=0.03)
     assert all(abs(r["force"][1] - 1000.0) < 1.0 for r in rows)
+
+
+def test_the_energy_account_books_the_frictional_dissipation(tmp_path):
+    """history.csv of the friction onset: the tool's normal and tangential
+    force, contact area and points; no dissipation while the block sticks;
+    then total energy - external work + dissipation stays within 1% of the
+    external work (what is left: the elastic slip's stored energy and the
+    trapezoidal rule's error), and the dissipation is about mu N times the
+    slip (300 N x 0.05 m)."""
+    out = tmp_path / "onset"
+    proc = run_pimpm(None, [f"{REPO}/inputs/friction_onset.yaml", "--output", out])
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "floor contact 16" in proc.stdout
+    with open(out / "history.csv") as f:
+        rows = list(csv.DictReader(f))
+    for row in rows:
+        assert float(row["floor_normal_force"]) == pytest.approx(1000.0, rel=1e-3)
+        assert float(row["floor_contact_area"]) == pytest.approx(1.0)
+        assert int(row["floor_contact_points"]) == 16
+        if float(row["time"]) < 1.0:
+            assert float(row["frictional_dissipation"]) == 0.0
+            assert float(row["floor_tangential_force"]) < 0.3 * 1000.0      # below Coulomb's limit
+    last = rows[-1]
+    balance = (float(last["total_energy"]) - float(last["external_work"])
+               + float(last["frictional_dissipation"]))
+    assert abs(balance) < 0.01 * float(last["external_work"])
+    assert float(last["frictional_dissipation"]) == pytest.approx(300.0 * 0.05, rel=0.03)

@@ -26,7 +26,22 @@ def particle_fields(sim):
         # the history fields the materials' models declare as output (plastic strain, work)
         **{name: np.concatenate([p["h_" + name], np.zeros((nr,) + p["h_" + name].shape[1:])])
            for name in dict.fromkeys(n for m in sim.materials for n in m.model.output)},
+        **contact_fields(sim),
     }
+
+
+def contact_fields(sim):
+    """With contact tools: each particle's contact state at the last step (0
+    open, 1 stick, 2 slip, the most slipping over the tools) and the force the
+    tools exert on it (pimpm.terms.contact); nothing otherwise."""
+    tools = sim.contact_tools
+    if not tools:
+        return {}
+    p, nr = sim.particles, len(sim.rigid)
+    status = np.max([p[t.output_fields[0]] for t in tools], axis=0).astype(p["body"].dtype)
+    force = np.sum([p[t.output_fields[1]] for t in tools], axis=0)
+    return {"contact_status": np.concatenate([status, np.zeros(nr, dtype=status.dtype)]),
+            "contact_force": np.concatenate([force, np.zeros((nr, sim.dim))])}
 
 
 def grid_fields(sim):

@@ -6,14 +6,21 @@ import os
 from .safe_files import atomic_write_text, open_append, open_new
 
 
+#: each contact tool's columns: the sum of its pressures times areas, the
+#: length of the sum of its tangential forces, the area (length in 2D) in
+#: contact and the number of particle-domain corners pressing on it
+CONTACT_COLUMNS = ("normal_force", "tangential_force", "contact_area", "contact_points")
+
+
 class History:
     """``continue_after``: continue an existing file (a restart), keeping its
     rows up to that step and dropping those after it."""
 
-    def __init__(self, comm, path, rigid_names, dim, continue_after=None, load_names=()):
+    def __init__(self, comm, path, rigid_names, dim, continue_after=None, load_names=(), contact_names=()):
         self.comm = comm
         self.rigid_names = rigid_names
         self.load_names = list(load_names)
+        self.contact_names = list(contact_names)
         self.dim = dim
         self.columns = ["step", "time", "dt", "newton_iterations", "linear_iterations",
                         "backtracks", "linear_fallbacks", "step_cuts",
@@ -25,6 +32,10 @@ class History:
         for name in self.load_names:
             self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
             self.columns += [f"{name}_displacement_{a}" for a in "xyz"[:dim]]
+        for name in self.contact_names:        # tools in unilateral contact (pimpm.terms.contact)
+            self.columns += [f"{name}_{c}" for c in CONTACT_COLUMNS]
+        if self.contact_names:
+            self.columns.append("frictional_dissipation")
         self.columns += ["particle_imbalance", "wall_time"]
         self.file = None
         if comm.rank == 0:
@@ -62,6 +73,10 @@ class History:
         for name in self.load_names:
             row += [repr(float(f)) for f in info["load_forces"][name]]
             row += [repr(float(u)) for u in info["load_displacements"][name]]
+        for name in self.contact_names:
+            row += [repr(info["contact"][name][c]) for c in CONTACT_COLUMNS]
+        if self.contact_names:
+            row.append(repr(info["frictional_dissipation"]))
         row += [f"{info['particle_imbalance']:.4f}", f"{info['wall_time']:.4f}"]
         self.writer.writerow(row)
         self.file.flush()

@@ -260,7 +260,8 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
     normal stiffness -kn a n n^T all the same (status HELD, no force): the
     first Newton iteration of a step, whose predictor may lift a resting
     corner off the tool by round-off, then does not throw the body away.
-    Returns (status, pressure)."""
+    Returns (status, pressure, the slip beyond the elastic one: the
+    frictional dissipation is area mu p times it)."""
     n = np.empty(3)
     H = np.empty((3, 3))
     phi = tool_distance(kind, params, y, dim, n, H, face)
@@ -275,15 +276,15 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
             for a in range(dim):
                 for b in range(dim):
                     D[a, b] = -area * kn * n[a] * n[b]
-            return HELD, 0.0
-        return OPEN, 0.0
+            return HELD, 0.0, 0.0
+        return OPEN, 0.0, 0.0
     p = -kn * phi                             # the penalty pressure, dp/dy = -kn n
     for a in range(dim):
         f[a] = area * p * n[a]
         for b in range(dim):
             D[a, b] = area * (-kn * n[a] * n[b] + p * H[a, b])
     if not friction:
-        return SLIP, p
+        return SLIP, p, 0.0
     # trial elastic slip s = P v, v = history + slip (dv/dy = I), and
     # ds/dy = P - (n.v) H - n (H v)^T
     v = np.empty(3)
@@ -306,6 +307,7 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
     norm = np.sqrt(norm2)
     t = np.empty(3)
     dt = np.empty((3, 3))
+    plastic = 0.0
     if norm <= stick:                         # stick: t = -k s, k = mu p / stick
         status = STICK
         k = mu * p / stick
@@ -316,6 +318,7 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
                 dt[a, b] = -k * ds[a, b] + s[a] * mu * kn * n[b] / stick
     else:                                     # slip: t = -mu p e, e = s / |s|
         status = SLIP
+        plastic = norm - stick                # the slip beyond the elastic one
         e = np.empty(3)
         for a in range(dim):
             e[a] = s[a] / norm
@@ -332,7 +335,7 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
         traction[a] = t[a]
         for b in range(dim):
             D[a, b] += area * dt[a, b]
-    return status, p
+    return status, p, plastic
 
 
 @jit
@@ -394,12 +397,14 @@ def corner_areas(kind, params, x, offsets, half, offset_end, axisymmetric, faces
 @jit
 def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end, increment, history,
                    area, faces, kn, stick, mu, friction, held, force_local, D, status, pressure, traction,
-                   elastic, slip_work):
+                   elastic, dissipation, corner_force):
     """The contact term at the iterate ``u_local``: each corner's force on
     the body scattered to its particle's nodes (added to ``force_local``),
     and per corner its derivative ``D`` (n, corners, dim, dim), status,
-    pressure, traction on the body and the frictional work t . slip a over
-    the step (``slip_work``). Returns the number of corners in contact."""
+    pressure, tangential traction on the body, elastic slip (the next
+    step's ``history``), frictional dissipation over the step and force on
+    the body (``corner_force``). ``held`` (n, corners): the corners to hold
+    (:func:`contact_point`). Returns the number of corners in contact."""
     n_particles, corners, nn = W.shape
     dim = x.shape[1]
     y = np.empty(3)
@@ -415,15 +420,15 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
                     du += W[p, c, k] * u_local[node_index[p, k], a]
                 y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
                 slip[a] = du - increment[a]
-            s, pr = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, mu,
+            s, pr, plastic = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, mu,
                                   friction, dim, f, D[p, c], t, elastic[p, c], faces[p], held[p, c])
             status[p, c] = s
             pressure[p, c] = pr
-            work = 0.0
+            for a in range(dim):
+                corner_force[p, c, a] = f[a]
             for a in range(dim):
                 traction[p, c, a] = t[a]
-                work += t[a] * slip[a]
-            slip_work[p, c] = area[p, c] * work      # the friction's work on the body over the step
+            dissipation[p, c] = area[p, c] * mu * pr * plastic     # Coulomb's dissipation over the step
             if s == OPEN or s == HELD:
                 continue
             touching += 1

@@ -80,8 +80,10 @@ class ContactTool(NodalTerm):
         self.symmetric_tangent = not self.friction
         self.field = SLIP_FIELD.format(index)
         self.touching_field = TOUCHING_FIELD.format(index)
+        #: the particle fields of the last step's contact state and force, for the output
+        self.output_fields = (f"contact_status_{index}", f"contact_force_{index}")
         self.offset = np.zeros(dim)                  # the tool's displacement so far
-        self.dissipation = 0.0                       # the friction's work on the material so far, negated
+        self.dissipation = 0.0                       # the frictional dissipation so far
         self._increment = np.zeros(dim)
         self._step = None
         self._u = None
@@ -142,15 +144,17 @@ class ContactTool(NodalTerm):
         pressure = np.empty((n, corners))
         traction = np.empty((n, corners, self.dim))
         elastic = np.empty((n, corners, self.dim))
-        work = np.empty((n, corners))
+        dissipation = np.empty((n, corners))
+        corner_force = np.empty((n, corners, self.dim))
         held = self._held if self._holding else np.zeros_like(self._held)
         touching = kernels.contact_forces(self.kind, self.params, state.node_index, W, self._x, offsets,
                                           u_local, self.offset + self._increment, self._increment,
                                           self._history, area, self._faces, self.kn, self.stick, self.mu,
                                           self.friction, held, force, D, status, pressure, traction, elastic,
-                                          work)
+                                          dissipation, corner_force)
         self._local = {"force": force, "D": D, "status": status, "pressure": pressure,
-                       "traction": traction, "elastic": elastic, "work": work, "touching": touching}
+                       "traction": traction, "elastic": elastic, "dissipation": dissipation, "touching": touching,
+                       "corner_force": corner_force}
         self._u = u_local.copy()
         return self._local
 
@@ -209,19 +213,25 @@ class ContactTool(NodalTerm):
         dim = self.dim
         sums = comm.allreduce(np.concatenate([
             total, [n_force, float(np.sum(area[touching])), float(np.sum(touching)),
-                    float(np.sum(local["work"]))], t_force]), op=MPI.SUM)
+                    float(np.sum(local["dissipation"]))], t_force]), op=MPI.SUM)
         forces[self.name] = sums[:dim]
         self.last = {"normal_force": float(sums[dim]), "contact_area": float(sums[dim + 1]),
                      "contact_points": int(round(sums[dim + 2])),
                      "tangential_force": float(np.linalg.norm(sums[dim + 4:])),
-                     "step_dissipation": -float(sums[dim + 3])}
+                     "step_dissipation": float(sums[dim + 3])}
 
     def commit(self, particles):
         """The converged step: the tool moves on, the corners keep their
         elastic slip (particle order is the step's: before migration)."""
         particles[self.field] = self._local["elastic"].copy()
-        particles[self.touching_field] = ((self._local["status"] == kernels.STICK)
-                                          | (self._local["status"] == kernels.SLIP)).astype(np.int8)
+        status = self._local["status"]
+        particles[self.touching_field] = ((status == kernels.STICK) | (status == kernels.SLIP)).astype(np.int8)
+        # what the output shows of the step: each particle's state (0 open, 1 stick,
+        # 2 slip: of its corners that press, the one that slips wins) and the force on it
+        pressing = self._local["pressure"] > 0.0
+        particles[self.output_fields[0]] = np.max(np.where(pressing, status, kernels.OPEN), axis=1,
+                                                  initial=0).astype(np.int8)
+        particles[self.output_fields[1]] = np.sum(self._local["corner_force"], axis=1)
         self.offset = self.offset + self._increment
         self.dissipation += self.last.get("step_dissipation", 0.0)
 
