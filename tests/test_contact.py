@@ -283,3 +283,91 @@ def test_the_energy_account_books_the_frictional_dissipation(tmp_path):
                + float(last["frictional_dissipation"]))
     assert abs(balance) < 0.01 * float(last["external_work"])
     assert float(last["frictional_dissipation"]) == pytest.approx(300.0 * 0.05, rel=0.03)
+
+
+def _barrel(sim):
+    """Largest particle radius near mid-height and near the platen, and the
+    particles' J range (the cylinder's particles)."""
+    p = sim.particles
+    x = p["x"]
+    top = sim.comm.allreduce(float(np.max(x[:, 1])) if len(p) else -np.inf, op=MPI.MAX)
+    mid = sim.comm.allreduce(float(np.max(x[x[:, 1] < 0.25 * top, 0], initial=-np.inf)), op=MPI.MAX)
+    upper = sim.comm.allreduce(float(np.max(x[x[:, 1] > 0.75 * top, 0], initial=-np.inf)), op=MPI.MAX)
+    J = np.linalg.det(p["F"])
+    return mid, upper, (sim.comm.allreduce(float(J.min()), op=MPI.MIN), sim.comm.allreduce(float(J.max()), op=MPI.MAX))
+
+
+def test_a_frictionless_platen_upsets_the_cylinder_homogeneously():
+    """Benchmark 4 with mu = 0 (Sulsky & Kaul's cylinder, inputs/upsetting.yaml,
+    1 mm cells): the exact answer is homogeneous: at 60% the platen force is
+    (700 + 300 eps_p) MPa x A0 h0 / h x J with eps_p = ln(h0/h) - sigma/E and
+    J = 1 - (1 - 2 nu) sigma / E (763 kN); pimpm's is within 1.5%, the
+    radius at mid-height equals the radius near the platen within a
+    particle spacing (no barrelling), particle J within 0.6% of the exact
+    0.998, and no step is cut. (The bonded platen gives 1031 kN.)"""
+    sim, stats, rows = _run(f"{REPO}/inputs/upsetting.yaml", ["bodies[1].contact=frictionless"])
+    assert stats.cuts == 0 and stats.failure is None
+    E, nu, h0, h = 2.0e5, 0.3, 15.0, 15.0 - 9.0
+    sigma = 700.0
+    for _ in range(50):                       # sigma = 700 + 300 (ln(h0/h) - sigma/E)
+        sigma = 700.0 + 300.0 * (np.log(h0 / h) - sigma / E)
+    J = 1.0 - (1.0 - 2.0 * nu) * sigma / E
+    exact = sigma * np.pi * 10.0 ** 2 * h0 / h * J
+    assert -rows[-1]["force"][1] == pytest.approx(exact, rel=0.015)
+    mid, upper, (J_min, J_max) = _barrel(sim)
+    assert abs(mid - upper) < 0.5
+    assert J_min > 0.994 * J and J_max < 1.006 * J
+
+
+def _history(out, column):
+    with open(out / "history.csv") as f:
+        return np.array([[float(r[c]) for c in column] for r in csv.DictReader(f)])
+
+
+def test_a_frictional_run_restarts_to_the_same_answer(tmp_path):
+    """The friction onset stopped at t = 1.2 s (sliding) with a checkpoint and
+    continued with --restart ends where the run left alone ends: the tool's
+    position, the corners' elastic slips and contact state travel in the
+    checkpoint. Bitwise up to the stop; after it to 1e-5 (forces) and 1e-6
+    (energies), not bitwise: the stopped run's last step lands on t = 1.2
+    exactly and so differs from the whole run's twelfth in the last bits of
+    dt, and the forces of this stiff block (E = 200 GPa, a contact penalty
+    of 1e14 Pa/m) are converged to about 1e-6 of themselves at the default
+    Newton tolerances (rtol 1e-8 of a residual scaled by E h = 5e10 N)."""
+    columns = ["floor_force_x", "floor_force_y", "floor_tangential_force", "frictional_dissipation",
+               "kinetic_energy"]
+    whole, parts = tmp_path / "whole", tmp_path / "parts"
+    proc = run_pimpm(None, [f"{REPO}/inputs/friction_onset.yaml", "--output", whole])
+    assert proc.returncode == 0, proc.stderr
+    proc = run_pimpm(None, [f"{REPO}/inputs/friction_onset.yaml", "--output", parts,
+                            "--set", "time.end_time=1.2", "--set", "output.checkpoint_every=1"])
+    assert proc.returncode == 0, proc.stderr
+    proc = run_pimpm(None, [f"{REPO}/inputs/friction_onset.yaml", "--output", parts, "--restart"])
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    a, b = _history(whole, columns), _history(parts, columns)
+    assert a.shape == b.shape
+    assert np.array_equal(a[:11], b[:11])
+    scale = np.max(np.abs(a), axis=0)
+    error = np.max(np.abs(a - b), axis=0) / scale
+    assert np.all(error[:3] < 1e-5) and np.all(error[3:] < 1e-6), error
+
+
+@pytest.mark.parametrize("nranks", [2, 3, 4])
+def test_friction_gives_the_same_answer_on_1_to_4_ranks(nranks, tmp_path):
+    """The friction onset (stick, then slip) on 1 and on 2, 3 and 4 ranks (a
+    2x2 process grid): the tool's forces agree to 3e-6 and the dissipation
+    and kinetic energy to 1e-6 (measured: 1e-6, 2e-7, 1e-7): the forces of
+    this stiff block are converged to about that at the default Newton
+    tolerances (see the restart test); the soft plate agrees to 1e-8
+    (test_the_plate_gives_the_same_answer_on_two_ranks)."""
+    columns = ["floor_force_x", "floor_force_y", "frictional_dissipation", "kinetic_energy"]
+    histories = []
+    for n in (1, nranks):
+        out = tmp_path / f"r{n}"
+        proc = run_pimpm(n, [f"{REPO}/inputs/friction_onset.yaml", "--output", out,
+                             "--set", "grid.cells=[16, 12]"])
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        histories.append(_history(out, columns))
+    a, b = histories
+    error = np.max(np.abs(a - b), axis=0) / np.max(np.abs(a), axis=0)
+    assert np.all(error[:2] < 3e-6) and np.all(error[2:] < 1e-6), error

@@ -202,7 +202,7 @@ def tool_distance(kind, params, y, dim, n, H, face=-1):
 def contact_faces(kind, params, x, offset_end, faces):
     """The face each particle meets a box or cylinder tool through: the one
     its centre ``x`` lies beyond, and only beyond (the tool displaced by
-    ``offset_end``); -1 where the centre lies beyond an edge or inside
+    ``offset_end``: where it is at the start of the step); -1 where the centre lies beyond an edge or inside
     (then the nearest point of the tool counts), and for other tools."""
     n_particles, dim = x.shape
     for p in range(n_particles):
@@ -515,3 +515,34 @@ def contact_diagonal(node_index, W, D, status, out_local):
                 i = node_index[p, k]
                 for a in range(dim):
                     out_local[i, a] -= w * w * D[p, c, a, a]
+
+
+@jit
+def push_out(kind, params, node_index, W, x, offsets, u_local, offset_end, faces, depth, moved, weight):
+    """The contact predictor's sums: for every corner deeper than ``depth``
+    inside the tool at ``u_local``, the displacement that would bring it back to the surface
+    (-phi n), added to its particle's nodes with the weights |w_cI|
+    (``moved`` += |w| d, ``weight`` += |w|; ghosted-local)."""
+    n_particles, corners, nn = W.shape
+    dim = x.shape[1]
+    y = np.empty(3)
+    n = np.empty(3)
+    H = np.empty((3, 3))
+    for p in range(n_particles):
+        for c in range(corners):
+            for a in range(dim):
+                du = 0.0
+                for k in range(nn):
+                    du += W[p, c, k] * u_local[node_index[p, k], a]
+                y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
+            phi = tool_distance(kind, params, y, dim, n, H, faces[p])
+            if not phi < -depth:
+                continue
+            for k in range(nn):
+                w = abs(W[p, c, k])
+                if w == 0.0:
+                    continue
+                i = node_index[p, k]
+                weight[i] += w
+                for a in range(dim):
+                    moved[i, a] -= w * phi * n[a]

@@ -120,10 +120,18 @@ def extend_weak_nodes(sim, node_index, S, G, dt):
 
 def initial_guess(sim, state):
     """G&W step 2: the integrator's predictor, or u = 0 if that would
-    invert a particle; prescribed values on prescribed dofs."""
+    invert a particle; prescribed values on prescribed dofs; then each
+    term's correction (contact tools push the corners it drives into them
+    back out: :meth:`pimpm.terms.NodalTerm.predict`), unless it inverts a
+    particle."""
     guess = np.where(state.fixed, state.fixed_value, state.predictor())
     if sim.problem.inverts(state, guess):
         guess = np.where(state.fixed, state.fixed_value, 0.0)
+    corrected = guess
+    for term in sim.terms:
+        corrected = term.predict(corrected, sim.grid, state.fixed)
+    if corrected is not guess and not sim.problem.inverts(state, corrected):
+        guess = corrected
     return guess
 
 

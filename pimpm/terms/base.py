@@ -71,6 +71,11 @@ class NodalTerm:
         (``u_local``: the same, ghosted-local) to ``residual`` (owned dofs,
         force units). Collective."""
 
+    def predict(self, u_owned, grid, fixed):
+        """The step's Newton guess ``u_owned`` as the term would improve it
+        (owned dofs; ``fixed``: the prescribed ones, kept). Collective."""
+        return u_owned
+
     def add_jacobian_values(self, u_local, grid, pattern, values):
         """``couples_particles``: add the derivative of :meth:`add_residual`
         into this rank's COO values of the step's ``pattern``."""

@@ -122,7 +122,10 @@ class ContactTool(NodalTerm):
         kernels.corner_weights(state.node_index, state.S, state.G, self._half, W, offsets)
         area = np.empty((n, corners))
         faces = np.empty(n, dtype=np.int64)
-        kernels.contact_faces(self.kind, self.params, self._x, self.offset + self._increment, faces)
+        # the face a particle meets the tool through: the side of the tool it is on at the
+        # start of the step (a platen thinner than its step's travel would otherwise push
+        # the particles it overtakes out through its far face)
+        kernels.contact_faces(self.kind, self.params, self._x, self.offset, faces)
         kernels.corner_areas(self.kind, self.params, self._x, offsets, self._half,
                              self.offset + self._increment, self.axisymmetric, faces, area)
         self._faces = faces
@@ -190,6 +193,29 @@ class ContactTool(NodalTerm):
         local = self._evaluate(u_local, grid.n_local_nodes)
         state, W = self._step[0], self._step[1]
         kernels.contact_diagonal(state.node_index, W, local["D"], local["status"], out_local)
+
+    def predict(self, u_owned, grid, fixed):
+        """The contact predictor: the Newton guess ``u_owned`` with the
+        nodes under corners that it pushes into the tool deeper than the
+        stick length (a thousandth of a cell: deeper than a resting corner's
+        own penetration, p h / (contact_stiffness M), at pressures below a
+        tenth of M) moved back out
+        along the tool's normal (each node by the |w|-weighted mean of its
+        corners' way out; prescribed dofs kept). Only the guess: the
+        converged answer does not depend on it. A platen that moves half a
+        cell into a body at rest otherwise starts Newton with a penalty
+        force of k_n h / 2 per area (1e7 times the flow stress in the
+        upsetting), and the first steps inverted particles. Collective."""
+        state, W, offsets, area = self._step
+        moved = np.zeros((grid.n_local_nodes, self.dim))
+        weight = np.zeros(grid.n_local_nodes)
+        kernels.push_out(self.kind, self.params, state.node_index, W, self._x, offsets,
+                         grid.owned_to_local(u_owned), self.offset + self._increment, self._faces,
+                         self.stick, moved, weight)
+        moved = grid.sum_to_owned(moved)
+        weight = grid.sum_scalar_to_owned(weight)             # repeated per component
+        push = np.where(weight > 0.0, moved / np.where(weight > 0.0, weight, 1.0), 0.0)
+        return np.where(fixed, u_owned, u_owned + push)
 
     def increment(self):
         return self._increment
