@@ -183,6 +183,9 @@ def expected_summary(path):
             if geo["type"] == "ball":          # centre strictly inside
                 inside = np.sum((points - np.array(geo["center"], float)) ** 2, axis=1) \
                     < float(geo["radius"]) ** 2
+            elif geo["type"] == "half_space":  # centre strictly on the inner side of the plane
+                normal = np.array(geo["normal"], float)
+                inside = (points - np.array(geo["point"], float)) @ (normal / np.linalg.norm(normal)) < 0.0
             else:                              # overlaps the box, centre strictly inside radially
                 radial = [d for d in range(dim) if d != "xyz".index(geo["axis"])]
                 inside = np.all((points + half > np.array(geo["lower"], float) + 1e-9 * half)
