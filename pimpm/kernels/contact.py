@@ -394,6 +394,20 @@ def corner_areas(kind, params, x, offsets, half, offset_end, axisymmetric, faces
             area[p, c] = s
 
 
+@jit_inline
+def _corner_at(W, node_index, u_local, x, offsets, offset_end, p, c, dim, y, moved):
+    """Corner c of particle p at the iterate: its displacement over the step
+    ``moved`` = sum_I w_cI u_I and its position relative to the tool at rest
+    ``y`` = x_p + r_c + moved - the tool's displacement."""
+    nn = W.shape[2]
+    for a in range(dim):
+        du = 0.0
+        for k in range(nn):
+            du += W[p, c, k] * u_local[node_index[p, k], a]
+        moved[a] = du
+        y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
+
+
 @jit
 def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end, increment, history,
                    area, faces, kn, stick, mu, friction, held, force_local, D, status, pressure, traction,
@@ -408,18 +422,16 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
     n_particles, corners, nn = W.shape
     dim = x.shape[1]
     y = np.empty(3)
+    moved = np.empty(3)
     slip = np.empty(3)
     f = np.empty(3)
     t = np.empty(3)
     touching = 0
     for p in range(n_particles):
         for c in range(corners):
+            _corner_at(W, node_index, u_local, x, offsets, offset_end, p, c, dim, y, moved)
             for a in range(dim):
-                du = 0.0
-                for k in range(nn):
-                    du += W[p, c, k] * u_local[node_index[p, k], a]
-                y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
-                slip[a] = du - increment[a]
+                slip[a] = moved[a] - increment[a]
             s, pr, plastic = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, mu,
                                   friction, dim, f, D[p, c], t, elastic[p, c], faces[p], held[p, c])
             status[p, c] = s
@@ -526,15 +538,12 @@ def push_out(kind, params, node_index, W, x, offsets, u_local, offset_end, faces
     n_particles, corners, nn = W.shape
     dim = x.shape[1]
     y = np.empty(3)
+    travel = np.empty(3)
     n = np.empty(3)
     H = np.empty((3, 3))
     for p in range(n_particles):
         for c in range(corners):
-            for a in range(dim):
-                du = 0.0
-                for k in range(nn):
-                    du += W[p, c, k] * u_local[node_index[p, k], a]
-                y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
+            _corner_at(W, node_index, u_local, x, offsets, offset_end, p, c, dim, y, travel)
             phi = tool_distance(kind, params, y, dim, n, H, faces[p])
             if not phi < -depth:
                 continue
