@@ -84,11 +84,17 @@ def test_a_tool_never_pulls():
     assert status == kernels.OPEN and not np.any(f) and not np.any(D)
 
 
-@pytest.mark.parametrize("nranks, dim, law, geometry", [
-    (1, "2d", "frictionless", "ball"), (1, "2d", "friction", "box"), (2, "2d", "friction", "box"),
-    (3, "2d", "friction", "half_space"), (2, "3d", "friction", "box"), (1, "3d", "frictionless", "ball")])
-def test_the_jacobian_with_contact_equals_finite_differences(nranks, dim, law, geometry):
-    proc = run_mpi(nranks, [f"{HERE}/mpi/contact_jacobian_check.py", dim, law, geometry])
+@pytest.mark.parametrize("nranks, dim, law, geometry, options", [
+    (1, "2d", "frictionless", "ball", []), (1, "2d", "friction", "box", []), (2, "2d", "friction", "box", []),
+    (3, "2d", "friction", "half_space", []), (2, "3d", "friction", "box", []),
+    (1, "3d", "frictionless", "ball", []),
+    (1, "2d", "friction", "box", ["hht", "axisymmetric"]),
+    (2, "2d", "friction", "box", ["quasi_static", "axisymmetric", "linear"]),
+    (1, "2d", "frictionless", "box", ["backward_euler", "plane_stress", "bspline"])])
+def test_the_jacobian_with_contact_equals_finite_differences(nranks, dim, law, geometry, options):
+    """Every integrator's, kinematics' and shape function's tangent with
+    contact (options: integrator, kinematics, shape functions)."""
+    proc = run_mpi(nranks, [f"{HERE}/mpi/contact_jacobian_check.py", dim, law, geometry] + options)
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 

@@ -1,7 +1,9 @@
 """Finite-difference check of the assembled Jacobian with a rigid tool in
 unilateral contact (pimpm.terms.contact), run under mpiexec.
 
-    contact_jacobian_check.py DIM LAW GEOMETRY
+    contact_jacobian_check.py DIM LAW GEOMETRY [INTEGRATOR [KINEMATICS [SHAPE]]]
+
+(defaults: newmark, plane strain or 3d, gimp).
 
 A block under gravity is pressed by a tool (LAW: frictionless or friction;
 GEOMETRY: box, ball or half_space, the half-space inclined and moving
@@ -28,6 +30,9 @@ from pimpm.steps import implicit as implicit_step  # noqa: E402
 dim = int(sys.argv[1][0])
 law = sys.argv[2]
 geometry = sys.argv[3]
+integrator = sys.argv[4] if len(sys.argv) > 4 else "newmark"
+kinematics = sys.argv[5] if len(sys.argv) > 5 else ("plane_strain" if dim == 2 else "3d")
+shape = sys.argv[6] if len(sys.argv) > 6 else "gimp"
 comm = MPI.COMM_WORLD
 zero = [0.0] * (dim - 1)
 lower, upper = [0.0] * dim, [2.0] * (dim - 1) + [2.5]
@@ -47,16 +52,19 @@ tool = {"name": "tool", "rigid": True, "contact": law, "geometry": tools[geometr
 if law == "friction":
     tool["friction_coefficient"] = 0.2
 raw = {
-    "grid": {"lower": lower, "upper": upper, "cells": cells, "shape_functions": "gimp",
+    "grid": {"lower": lower, "upper": upper, "cells": cells, "shape_functions": shape,
              "boundary": {"ymin" if dim == 2 else "zmin": "fixed"}},
+    "kinematics": kinematics,
     "materials": {"m": {"model": "neo_hookean_compressible", "youngs_modulus": 1.0e6,
                         "poisson_ratio": 0.3, "density": 100.0}},
     "bodies": [{"name": "block", "material": "m", "particles_per_cell": 2,
                 "geometry": {"type": "box", "lower": [0.25] * (dim - 1) + [0.0],
                              "upper": [1.25] * (dim - 1) + [1.0]}}, tool],
-    "time": {"integrator": "newmark", "dt": 0.02, "end_time": 1.0,
+    "time": {"integrator": integrator, "dt": 0.02, "end_time": 1.0,
              "gravity": zero + [-9.81]},
 }
+if integrator == "hht":
+    raw["time"]["alpha"] = -0.2
 sim = Simulation(validate(raw), comm)
 term = sim.contact_tools[0]
 # the set-up steps without friction (Newton's stick-slip cycling on a dropped
@@ -121,7 +129,8 @@ for trial in range(3):
     shell_error = max(shell_error, y_shell.norm() / y_assembled.norm())
 relative = err / scale
 if comm.rank == 0:
-    print(f"contact jacobian {dim}d {law} {geometry} ranks {comm.size}: relative error {relative:.3e}, "
+    print(f"contact jacobian {dim}d {law} {geometry} {integrator} {kinematics} {shape} ranks {comm.size}: "
+          f"relative error {relative:.3e}, "
           f"shell {shell_error:.3e}, corners open/stick/slip {states.tolist()}")
 ok = relative < 1e-5 and shell_error < 1e-12 and states[1] + states[2] > 0
 if law == "friction" and geometry == "box":   # both stick and slip are checked
