@@ -377,3 +377,19 @@ def test_friction_gives_the_same_answer_on_1_to_4_ranks(nranks, tmp_path):
     a, b = histories
     error = np.max(np.abs(a - b), axis=0) / np.max(np.abs(a), axis=0)
     assert np.all(error[:2] < 3e-6) and np.all(error[2:] < 1e-6), error
+
+
+def test_a_particle_that_reaches_a_tool_from_afar_in_one_step_cuts_the_step():
+    """Only particles within two cells (plus the tool's travel and their half
+    diagonal) of a tool are contact candidates for a step; a block thrown at
+    the floor three cells a step reaches it from farther: the step is cut,
+    not run through the floor."""
+    raw = load_config(f"{REPO}/inputs/block_on_ramp.yaml",
+                      ["time.gravity=[0.0, 0.0]", "bodies[0].velocity=[0.0, -7.5]",
+                       "bodies[0].geometry.lower=[0.005, 0.0105]", "bodies[0].geometry.upper=[0.025, 0.0305]",
+                       "grid.upper=[0.06, 0.04]", "grid.cells=[24, 16]", "time.end_time=0.002"])
+    rows = _Rows()
+    sim, stats, status = run_to_end(raw, observers=[rows])
+    assert stats.cuts >= 1 and stats.failure is None
+    p = sim.particles
+    assert np.min(p["x"][:, 1]) > 0.005            # nothing went through the floor

@@ -555,3 +555,23 @@ def push_out(kind, params, node_index, W, x, offsets, u_local, offset_end, faces
                 weight[i] += w
                 for a in range(dim):
                     moved[i, a] -= w * phi * n[a]
+
+
+@jit
+def particle_distances(kind, params, node_index, S, x, u_local, offset, out):
+    """Each particle centre's signed distance from the tool (displaced by
+    ``offset``), the centre moved by its interpolated displacement
+    ``u_local`` (zeros: where it is), into ``out``. For the contact term's
+    candidates and its check of the others."""
+    n_particles, nn = S.shape
+    dim = x.shape[1]
+    y = np.empty(3)
+    n = np.empty(3)
+    H = np.empty((3, 3))
+    for p in range(n_particles):
+        for a in range(dim):
+            du = 0.0
+            for k in range(nn):
+                du += S[p, k] * u_local[node_index[p, k], a]
+            y[a] = x[p, a] + du - offset[a]
+        out[p] = tool_distance(kind, params, y, dim, n, H)

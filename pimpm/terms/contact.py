@@ -19,6 +19,7 @@ time; its own particles only show it (they prescribe nothing)."""
 import numpy as np
 from mpi4py import MPI
 
+from ..errors import StepFailed
 from ..functions import ONE, lookup
 from ..kernels import contact as kernels
 from .base import NodalTerm
@@ -78,6 +79,7 @@ class ContactTool(NodalTerm):
         self.axisymmetric = axisymmetric
         #: the tangent is symmetric without friction (the penalty has a potential)
         self.symmetric_tangent = not self.friction
+        self.h = h
         self.field = SLIP_FIELD.format(index)
         self.touching_field = TOUCHING_FIELD.format(index)
         #: the particle fields of the last step's contact state and force, for the output
@@ -113,26 +115,46 @@ class ContactTool(NodalTerm):
         self._u = None
 
     def begin_newton(self, state):
-        """The corners' weights, offsets and areas on the step's footprint
-        (after the weak-node extension changed it)."""
-        n, nn = state.S.shape
+        """The candidates (the particles whose domains can reach the tool
+        this step: their centres within the tool's travel plus two cells plus
+        their half diagonal of it) and their corners' weights, offsets and
+        areas on the step's footprint (after the weak-node extension changed
+        it). Only candidates are in contact: a corner extrapolated from a
+        particle far from the tool into a barely supported node could
+        otherwise be thrown into the tool by a Newton trial step (the
+        frictional upsetting's outer surface at mid-height did)."""
+        n_all = len(self._x)
+        distance = np.empty(n_all)
+        kernels.particle_distances(self.kind, self.params, state.node_index, state.S, self._x,
+                                   np.zeros((int(np.max(state.node_index, initial=-1)) + 1, self.dim)),
+                                   self.offset, distance)
+        reach = (float(np.linalg.norm(self._increment)) + 2.0 * self.h
+                 + np.linalg.norm(self._half, axis=1) if n_all else np.zeros(0))
+        self._candidates = np.flatnonzero(distance < reach)
+        self._others = np.flatnonzero(~(distance < reach))
+        c = self._candidates
+        node_index, S, G, active = state.node_index[c], state.S[c], state.G[c], state.active[c]
+        x, half = self._x[c], self._half[c]
+        n, nn = S.shape
         corners = 1 << self.dim
         W = np.empty((n, corners, nn))
         offsets = np.empty((n, corners, self.dim))
-        kernels.corner_weights(state.node_index, state.S, state.G, self._half, W, offsets)
+        kernels.corner_weights(node_index, S, G, half, W, offsets)
         area = np.empty((n, corners))
         faces = np.empty(n, dtype=np.int64)
         # the face a particle meets the tool through: the side of the tool it is on at the
         # start of the step (a platen thinner than its step's travel would otherwise push
         # the particles it overtakes out through its far face)
-        kernels.contact_faces(self.kind, self.params, self._x, self.offset, faces)
-        kernels.corner_areas(self.kind, self.params, self._x, offsets, self._half,
+        kernels.contact_faces(self.kind, self.params, x, self.offset, faces)
+        kernels.corner_areas(self.kind, self.params, x, offsets, half,
                              self.offset + self._increment, self.axisymmetric, faces, area)
         self._faces = faces
+        self._cand = {"node_index": node_index, "active": active, "x": x,
+                      "history": self._history[c], "held": self._touching[c].astype(bool)}
         self._step = (state, W, offsets, area)
         self._u = None
         # the first Jacobian holds the corners that were touching (kernels.contact.HELD)
-        self._held = self._touching.astype(bool)
+        self._held = self._cand["held"]
         self._holding = bool(np.any(self._held))
 
     def _evaluate(self, u_local, n_nodes):
@@ -150,11 +172,13 @@ class ContactTool(NodalTerm):
         dissipation = np.empty((n, corners))
         corner_force = np.empty((n, corners, self.dim))
         held = self._held if self._holding else np.zeros_like(self._held)
-        touching = kernels.contact_forces(self.kind, self.params, state.node_index, W, self._x, offsets,
+        cand = self._cand
+        touching = kernels.contact_forces(self.kind, self.params, cand["node_index"], W, cand["x"], offsets,
                                           u_local, self.offset + self._increment, self._increment,
-                                          self._history, area, self._faces, self.kn, self.stick, self.mu,
+                                          cand["history"], area, self._faces, self.kn, self.stick, self.mu,
                                           self.friction, held, force, D, status, pressure, traction, elastic,
                                           dissipation, corner_force)
+        self._u_converged = u_local
         self._local = {"force": force, "D": D, "status": status, "pressure": pressure,
                        "traction": traction, "elastic": elastic, "dissipation": dissipation, "touching": touching,
                        "corner_force": corner_force}
@@ -176,8 +200,8 @@ class ContactTool(NodalTerm):
 
     def add_jacobian_values(self, u_local, grid, pattern, values):
         local = self._evaluate(u_local, grid.n_local_nodes)
-        state, W = self._step[0], self._step[1]
-        kernels.contact_blocks(state.node_index, state.active, W, local["D"], local["status"],
+        W, cand = self._step[1], self._cand
+        kernels.contact_blocks(cand["node_index"], cand["active"], W, local["D"], local["status"],
                                grid.ghost_ijk, pattern.width, pattern.indptr, pattern.slot_position,
                                values)
         self._first_jacobian_done()
@@ -185,14 +209,13 @@ class ContactTool(NodalTerm):
     def add_product(self, u_local, grid, x_local, out_local):
         self._first_jacobian_done()          # the matrix-free product is always the exact one
         local = self._evaluate(u_local, grid.n_local_nodes)
-        state, W = self._step[0], self._step[1]
-        kernels.contact_product(state.node_index, W, local["D"], local["status"], x_local, out_local)
+        kernels.contact_product(self._cand["node_index"], self._step[1], local["D"], local["status"], x_local,
+                                out_local)
 
     def add_diagonal(self, u_local, grid, out_local):
         self._first_jacobian_done()
         local = self._evaluate(u_local, grid.n_local_nodes)
-        state, W = self._step[0], self._step[1]
-        kernels.contact_diagonal(state.node_index, W, local["D"], local["status"], out_local)
+        kernels.contact_diagonal(self._cand["node_index"], self._step[1], local["D"], local["status"], out_local)
 
     def predict(self, u_owned, grid, fixed):
         """The contact predictor: the Newton guess ``u_owned`` with the
@@ -209,7 +232,7 @@ class ContactTool(NodalTerm):
         state, W, offsets, area = self._step
         moved = np.zeros((grid.n_local_nodes, self.dim))
         weight = np.zeros(grid.n_local_nodes)
-        kernels.push_out(self.kind, self.params, state.node_index, W, self._x, offsets,
+        kernels.push_out(self.kind, self.params, self._cand["node_index"], W, self._cand["x"], offsets,
                          grid.owned_to_local(u_owned), self.offset + self._increment, self._faces,
                          self.stick, moved, weight)
         moved = grid.sum_to_owned(moved)
@@ -227,8 +250,22 @@ class ContactTool(NodalTerm):
     def report(self, forces, comm):
         """The converged step's contact force on the material (into
         ``forces``, by name) and its summary: normal and tangential force,
-        contact area, corners in contact (``self.last``). Collective."""
+        contact area, corners in contact (``self.last``). StepFailed on every
+        rank if a particle that was not a candidate ends the step with its
+        centre inside the tool (it came more than two cells in one step).
+        Collective."""
         local = self._local
+        state, others = self._step[0], self._others
+        reached = 0
+        if len(others):
+            distance = np.empty(len(others))
+            kernels.particle_distances(self.kind, self.params, state.node_index[others], state.S[others],
+                                       self._x[others], self._u_converged, self.offset + self._increment,
+                                       distance)
+            reached = int(np.sum(distance < 0.0))
+        if comm.allreduce(reached):
+            raise StepFailed(f"particles reached the tool {self.name} from more than two cells away in "
+                             "one step: expected a smaller step")
         area = self._step[3]
         touching = local["pressure"] > 0.0
         n_force = np.sum(area * local["pressure"])
@@ -249,15 +286,19 @@ class ContactTool(NodalTerm):
     def commit(self, particles):
         """The converged step: the tool moves on, the corners keep their
         elastic slip (particle order is the step's: before migration)."""
-        particles[self.field] = self._local["elastic"].copy()
+        c = self._candidates                 # the others are not in contact: zero
         status = self._local["status"]
-        particles[self.touching_field] = ((status == kernels.STICK) | (status == kernels.SLIP)).astype(np.int8)
-        # what the output shows of the step: each particle's state (0 open, 1 stick,
-        # 2 slip: of its corners that press, the one that slips wins) and the force on it
-        pressing = self._local["pressure"] > 0.0
-        particles[self.output_fields[0]] = np.max(np.where(pressing, status, kernels.OPEN), axis=1,
-                                                  initial=0).astype(np.int8)
-        particles[self.output_fields[1]] = np.sum(self._local["corner_force"], axis=1)
+        fields = {self.field: self._local["elastic"],
+                  self.touching_field: ((status == kernels.STICK) | (status == kernels.SLIP)).astype(np.int8),
+                  # what the output shows of the step: each particle's state (0 open, 1 stick,
+                  # 2 slip: of its corners that press, the one that slips wins) and the force on it
+                  self.output_fields[0]: np.max(np.where(self._local["pressure"] > 0.0, status, kernels.OPEN),
+                                                axis=1, initial=0).astype(np.int8),
+                  self.output_fields[1]: np.sum(self._local["corner_force"], axis=1)}
+        for name, values in fields.items():
+            full = np.zeros_like(particles[name])
+            full[c] = values
+            particles[name] = full
         self.offset = self.offset + self._increment
         self.dissipation += self.last.get("step_dissipation", 0.0)
 
