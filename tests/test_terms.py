@@ -161,7 +161,7 @@ class ConstantForce(NodalTerm):
     def __init__(self, force):
         self.force = np.asarray(force, dtype=float)
 
-    def add_explicit_force(self, velocity, dt, force):
+    def add_explicit_force(self, velocity, dt, force, mass=None):
         force.reshape(-1, len(self.force))[:] += self.force
 
 

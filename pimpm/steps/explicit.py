@@ -15,6 +15,7 @@ import numpy as np
 from .. import bc
 from ..errors import THICKNESS_FAILURE, StepFailed
 from ..kernels import particle_step
+from ..kernels import pattern as kernel_pattern
 from ..kernels.stress import current_internal_force, explicit_g2p, explicit_p2g
 from ..stages import log_stage
 
@@ -101,6 +102,16 @@ class ParticleStress:
             p["h_" + name] = values
 
 
+class ExplicitFootprint:
+    """What a term sees of the explicit step's footprint (the implicit step
+    hands it its StepState): nodes, weights, gradients and the entries with
+    a weight or a gradient."""
+
+    def __init__(self, node_index, S, G):
+        self.node_index, self.S, self.G = node_index, S, G
+        self.active = kernel_pattern.active_entries(S, G)
+
+
 def _check(sim, dt, saved, inverted=0, unconverged=0, outside=False):
     """StepFailed on every rank (the fields in ``saved`` restored) if, on any
     rank, a particle would invert, its thickness did not converge or it
@@ -132,6 +143,9 @@ def advance(sim, dt):
         velocity = np.where(has_mass, nodal[:, 1:1 + dim].reshape(-1) / safe_mass, 0.0)
         fext = sim.nodal_external_force(node_index, S, mass, sim.time)      # eq. 4
         sim.begin_terms(dt)
+        footprint = ExplicitFootprint(node_index, S, G)
+        for term in sim.terms:                # contact tools: their corners on this footprint
+            term.begin_newton(footprint)
         cons = bc.build_constraints(grid, sim.terms, sim.boundary, mass, dt, sim.mass_floor,
                                     time=sim.time, functions=sim.functions)
         velocity = np.where(cons.fixed, cons.value / dt, velocity)
@@ -146,13 +160,16 @@ def advance(sim, dt):
     with log_stage(sim.stages["G2P"]):
         net = fext - fint
         for term in sim.terms:                                                   # pimpm.terms
-            term.add_explicit_force(velocity, dt, net)
+            term.add_explicit_force(velocity, dt, net, mass=np.where(has_mass, mass, 0.0))
         acceleration = np.where(has_mass, net / safe_mass, 0.0)                  # eq. 1
         v_new = velocity + acceleration * dt                                     # eq. 7
         v_new = np.where(cons.fixed, cons.value / dt, v_new)
         acceleration = np.where(cons.fixed, 0.0, acceleration)
         # the force the bodies apply
         forces = cons.reactions(mass * (v_new - velocity) / dt - fext + fint, comm, dim)
+        for term in sim.terms:                 # contact tools: where the step took them, their force
+            term.settle(grid.owned_to_local(v_new * dt))
+            term.report(forces, comm, explicit=True)
         v_local = grid.owned_to_local(v_new)
         new_v, new_x, momentum = stress.grid_to_particle(grid.owned_to_local((v_new - velocity) / dt),
                                                          v_local, dt)             # eq. 9-10
@@ -174,6 +191,8 @@ def advance(sim, dt):
             stress.commit()
         sim.work.add(forces, increments, new_x - p["x"], sim.particle_external_force(sim.time),
                      sim.particle_external_force(sim.time))
+        for term in sim.terms:
+            term.commit(p)
         p["v"], p["x"] = new_v, new_x
         p["a"] = np.zeros_like(new_v)
         sim.rigid["x"] = new_rigid_x

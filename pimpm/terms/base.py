@@ -86,9 +86,13 @@ class NodalTerm:
     def add_diagonal(self, u_local, grid, out_local):
         """``couples_particles``: add the derivative's diagonal (ghosted-local)."""
 
-    def report(self, forces, comm):
+    def report(self, forces, comm, explicit=False):
         """The converged step: add the term's force on the material to
         ``forces`` (name -> vector) if it is not a reaction. Collective."""
+
+    def settle(self, u_local):
+        """The explicit step: where the step took the grid (dt times the new
+        velocity, ghosted-local), before :meth:`report`."""
 
     def commit(self, particles):
         """The converged step: keep what the term carries to the next one."""
@@ -98,10 +102,11 @@ class NodalTerm:
         (owned node indices (k,), blocks (k, dim, dim)), or None."""
         return None
 
-    def add_explicit_force(self, velocity, dt, force):
+    def add_explicit_force(self, velocity, dt, force, mass=None):
         """Add the term's force on the owned dofs to ``force`` (the external
         minus internal force of the explicit step's eq. 1) from the grid
-        velocity at t (owned dofs)."""
+        velocity at t (owned dofs; ``mass``: the nodal mass per dof, zero
+        where there is none). Collective."""
 
     def increment(self):
         """The term's displacement over the step (dim,): zero if it does not move."""

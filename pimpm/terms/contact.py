@@ -110,6 +110,8 @@ class ContactTool(NodalTerm):
         self._x = particles["x"]
         self._half = context.half_sizes()
         self._history = particles[self.field]
+        self._density = particles["mass"] / particles["volume0"]
+        self._grid, self._comm = context.grid, context.grid.comm
         self._touching = particles[self.touching_field]
         self._step = None
         self._u = None
@@ -240,6 +242,45 @@ class ContactTool(NodalTerm):
         push = np.where(weight > 0.0, moved / np.where(weight > 0.0, weight, 1.0), 0.0)
         return np.where(fixed, u_owned, u_owned + push)
 
+    def add_explicit_force(self, velocity, dt, force, mass=None):
+        """The same law in the explicit step, at the step's trial state: the
+        corners moved by dt times the grid velocity the step would reach
+        without contact (v + dt (Fext - Fint) / m), their contact forces
+        added to ``force`` (the next step starts from where they left the
+        corners' elastic slip). An explicit penalty must not outrun the step:
+        its stiffness is at most half of rho 2 l / dt^2 (the stiffness that
+        would undo a corner's penetration over one step on its particle's
+        mass per area of its face: rho the least density, l the least half
+        size), below which it keeps the implicit one. Collective."""
+        if mass is None:
+            raise ValueError("contact in the explicit step needs the nodal mass")
+        has_mass = mass > 0.0
+        trial = dt * (velocity + dt * np.where(has_mass, force / np.where(has_mass, mass, 1.0), 0.0))
+        kn = self.kn
+        if len(self._candidates):
+            density = float(np.min(self._density[self._candidates]))
+            reach = 2.0 * float(np.min(self._half[self._candidates]))
+            kn = min(kn, 0.5 * density * reach / dt ** 2)
+        self._explicit_kn = self._comm.allreduce(kn, op=MPI.MIN)
+        local = self._evaluate_with(self._explicit_kn, self._grid.owned_to_local(trial))
+        force += self._grid.sum_to_owned(local["force"])
+
+    def _evaluate_with(self, kn, u_local):
+        saved, self.kn = self.kn, kn
+        try:
+            return self._evaluate(u_local, self._grid.n_local_nodes)
+        finally:
+            self.kn = saved
+
+    def settle(self, u_local):
+        """The explicit step's corners where the step really took them
+        (``u_local``: dt times the new grid velocity, ghosted-local): the
+        elastic slips and states the next step starts from. (The trial state
+        of :meth:`add_explicit_force` would store the slip the step would
+        have made without friction: a sticking block's elastic slip would
+        grow by dt^2 g every step until it slipped.)"""
+        self._evaluate_with(self._explicit_kn, u_local)
+
     def increment(self):
         return self._increment
 
@@ -247,7 +288,7 @@ class ContactTool(NodalTerm):
         return np.where((rigid["body"] == self.index)[:, None], self._increment, 0.0)
 
     # ----------------------------------------------------------------- after convergence
-    def report(self, forces, comm):
+    def report(self, forces, comm, explicit=False):
         """The converged step's contact force on the material (into
         ``forces``, by name) and its summary: normal and tangential force,
         contact area, corners in contact (``self.last``). StepFailed on every
@@ -257,7 +298,7 @@ class ContactTool(NodalTerm):
         local = self._local
         state, others = self._step[0], self._others
         reached = 0
-        if len(others):
+        if len(others) and not explicit:     # an explicit step moves nothing a cell
             distance = np.empty(len(others))
             kernels.particle_distances(self.kind, self.params, state.node_index[others], state.S[others],
                                        self._x[others], self._u_converged, self.offset + self._increment,
