@@ -116,18 +116,23 @@ def upsetting():
         sigma = 700.0 + 300.0 * (np.log(h0 / h) - sigma / E)
     J = 1.0 - (1.0 - 2.0 * nu) * sigma / E
     exact = sigma * np.pi * 100.0 * h0 / h * J
-    for size, contact in ((2.0, "frictionless"), (1.0, "frictionless"), (0.5, "frictionless"),
-                          (1.0, "friction"), (1.0, "bonded")):
+    cases = [(2.0, "linear", "frictionless", None), (1.0, "linear", "frictionless", None),
+             (0.5, "linear", "frictionless", None), (1.0, "linear", "friction", 0.1),
+             (1.0, "linear", "bonded", None)]
+    cases += [(1.0, "gimp", contact, mu) for contact, mu in (("frictionless", None), ("friction", 0.1),
+                                                              ("friction", 0.3), ("bonded", None))]
+    for size, shape, contact, mu in cases:
         cells = [int(24 / size), int(17 / size)]
-        overrides = [f"grid.cells={cells}", f"time.dt={5e-4 * size}", f"bodies[1].contact={contact}"]
+        overrides = [f"grid.cells={cells}", f"time.dt={5e-4 * size}", f"bodies[1].contact={contact}",
+                     f"grid.shape_functions={shape}"]
         if contact == "friction":
-            overrides.append("bodies[1].friction_coefficient=0.1")
+            overrides.append(f"bodies[1].friction_coefficient={mu}")
         sim, rows, info = run("upsetting.yaml", overrides)
         p = sim.particles
         x = p["x"]
         top = float(np.max(x[:, 1]))
         J_p = np.linalg.det(p["F"])
-        out.append(dict(info, size=size, contact=contact, mu=0.1 if contact == "friction" else None,
+        out.append(dict(info, size=size, shape=shape, contact=contact, mu=mu,
                         force=-rows[-1]["force"][1] / 1000.0, exact=exact / 1000.0,
                         error=(-rows[-1]["force"][1] - exact) / exact,
                         radius_mid=float(np.max(x[x[:, 1] < 0.25 * top, 0])),
@@ -163,7 +168,7 @@ def main():
               ["dt", "cuts", "newton_mean", "newton_max", "onset", "velocity_2s", "slip_2s", "dissipation",
                "energy_balance"])
         table("Upsetting at 60%", results["upsetting"],
-              ["size", "contact", "mu", "cuts", "newton_mean", "force", "exact", "error", "radius_mid",
+              ["size", "shape", "contact", "mu", "steps", "cuts", "newton_mean", "force", "exact", "error", "radius_mid",
                "radius_top", "J_min", "J_max"])
         with open(args.json, "w") as f:
             json.dump(results, f, indent=1, default=str)

@@ -408,3 +408,22 @@ def test_an_explicit_block_slides_down_a_frictionless_floor():
     g = 9.80665
     assert _acceleration(rows) == pytest.approx(g * 0.5, rel=1e-4)
     assert all(abs(r["force"][0]) < 1e-9 for r in rows)      # a frictionless floor: no tangential force
+
+
+def test_friction_raises_the_upsetting_force_and_barrelling_in_order():
+    """Benchmark 4's trend (GIMP, 1 mm): the force at 60% and the barrelling
+    (radius at mid-height less the radius near the platen) grow from
+    frictionless to mu = 0.1 to mu = 0.3 to bonded; frictionless does not
+    barrel. (mu = 0.3 needs step cuts: docs/VALIDATION.md.)"""
+    forces, barrels = [], []
+    for contact in (["bodies[1].contact=frictionless"],
+                    ["bodies[1].contact=friction", "bodies[1].friction_coefficient=0.1"],
+                    ["bodies[1].contact=friction", "bodies[1].friction_coefficient=0.3"],
+                    ["bodies[1].contact=bonded"]):
+        sim, stats, rows = _run(f"{REPO}/inputs/upsetting.yaml", ["grid.shape_functions=gimp"] + contact)
+        assert stats.failure is None
+        mid, upper, _ = _barrel(sim)
+        forces.append(-rows[-1]["force"][1])
+        barrels.append(mid - upper)
+    assert forces == sorted(forces) and barrels == sorted(barrels)
+    assert abs(barrels[0]) < 0.1 and barrels[1] > 1.0
