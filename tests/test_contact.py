@@ -410,6 +410,7 @@ def test_an_explicit_block_slides_down_a_frictionless_floor():
     assert all(abs(r["force"][0]) < 1e-9 for r in rows)      # a frictionless floor: no tangential force
 
 
+@pytest.mark.slow
 def test_friction_raises_the_upsetting_force_and_barrelling_in_order():
     """Benchmark 4's trend (GIMP, 1 mm): the force at 60% and the barrelling
     (radius at mid-height less the radius near the platen) grow from
