@@ -273,12 +273,13 @@ class StepProblem:
     def form_jacobian(self, snes, X, J, P):
         st = self.state
         grid = self.grid
-        evaluation = self.evaluate(X.getArray(readonly=True), grid.vec_to_local(X))
+        u_local = grid.vec_to_local(X)
+        evaluation = self.evaluate(X.getArray(readonly=True), u_local)
         if P.getType() == PETSc.Mat.Type.PYTHON:
             if evaluation is not None:
                 project = self.formulation.projector(st, grid)
                 P.getPythonContext().update(st, evaluation, self.residual_scale, project,
-                                            X.getArray(readonly=True).copy(), grid.vec_to_local(X))
+                                            X.getArray(readonly=True).copy(), u_local)
             P.assemble()
             if J != P:
                 J.assemble()
@@ -288,8 +289,7 @@ class StepProblem:
         with self._stage("Assembly"):
             if self.coo:
                 # every rank hands PETSc its values, none or not (collective)
-                values = self._jacobian_values(evaluation, X.getArray(readonly=True),
-                                               grid.vec_to_local(X))
+                values = self._jacobian_values(evaluation, X.getArray(readonly=True), u_local)
                 coo.set_values(P, values)
                 if self.free_matrix is not None:
                     coo.set_values(self.free_matrix, values)

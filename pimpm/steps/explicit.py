@@ -9,6 +9,7 @@ functions (:mod:`pimpm.kernels.transfer`), the stress update
 and material points as Newton's iterates) and the internal force
 (:func:`pimpm.kernels.stress.current_internal_force`)."""
 import time as wallclock
+from functools import cached_property
 
 import numpy as np
 
@@ -109,7 +110,11 @@ class ExplicitFootprint:
 
     def __init__(self, node_index, S, G):
         self.node_index, self.S, self.G = node_index, S, G
-        self.active = kernel_pattern.active_entries(S, G)
+
+    @cached_property
+    def active(self):
+        """Made when a term asks (steps without contact tools never do)."""
+        return kernel_pattern.active_entries(self.S, self.G)
 
 
 def _check(sim, dt, saved, inverted=0, unconverged=0, outside=False):
