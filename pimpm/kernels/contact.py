@@ -395,17 +395,35 @@ def corner_areas(kind, params, x, offsets, half, offset_end, axisymmetric, faces
 
 
 @jit_inline
+def _gather_corner(W, node_index, p, c, dim, values, out):
+    """out = sum_I w_cI values_I over the nodes I of particle p (corner c)."""
+    for a in range(dim):
+        s = 0.0
+        for k in range(W.shape[2]):
+            s += W[p, c, k] * values[node_index[p, k], a]
+        out[a] = s
+
+
+@jit_inline
 def _corner_at(W, node_index, u_local, x, offsets, offset_end, p, c, dim, y, moved):
     """Corner c of particle p at the iterate: its displacement over the step
     ``moved`` = sum_I w_cI u_I and its position relative to the tool at rest
     ``y`` = x_p + r_c + moved - the tool's displacement."""
-    nn = W.shape[2]
+    _gather_corner(W, node_index, p, c, dim, u_local, moved)
     for a in range(dim):
-        du = 0.0
-        for k in range(nn):
-            du += W[p, c, k] * u_local[node_index[p, k], a]
-        moved[a] = du
-        y[a] = x[p, a] + offsets[p, c, a] + du - offset_end[a]
+        y[a] = x[p, a] + offsets[p, c, a] + moved[a] - offset_end[a]
+
+
+@jit_inline
+def _scatter_corner(W, node_index, p, c, dim, vector, out):
+    """out_I += w_cI vector for the nodes I of particle p (corner c)."""
+    for k in range(W.shape[2]):
+        w = W[p, c, k]
+        if w == 0.0:
+            continue
+        i = node_index[p, k]
+        for a in range(dim):
+            out[i, a] += w * vector[a]
 
 
 @jit
@@ -418,7 +436,7 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
     pressure, tangential traction on the body, elastic slip (the next
     step's ``history``), frictional dissipation over the step and force on
     the body (``corner_force``). ``held`` (n, corners): the corners to hold
-    (:func:`contact_point`). Returns the number of corners in contact."""
+    (:func:`contact_point`)."""
     n_particles, corners, nn = W.shape
     dim = x.shape[1]
     y = np.empty(3)
@@ -426,7 +444,6 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
     slip = np.empty(3)
     f = np.empty(3)
     t = np.empty(3)
-    touching = 0
     for p in range(n_particles):
         for c in range(corners):
             _corner_at(W, node_index, u_local, x, offsets, offset_end, p, c, dim, y, moved)
@@ -441,17 +458,8 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
             for a in range(dim):
                 traction[p, c, a] = t[a]
             dissipation[p, c] = area[p, c] * mu * pr * plastic     # Coulomb's dissipation over the step
-            if s == OPEN or s == HELD:
-                continue
-            touching += 1
-            for k in range(nn):
-                w = W[p, c, k]
-                if w == 0.0:
-                    continue
-                i = node_index[p, k]
-                for a in range(dim):
-                    force_local[i, a] += w * f[a]
-    return touching
+            if s != OPEN and s != HELD:
+                _scatter_corner(W, node_index, p, c, dim, f, force_local)
 
 
 @jit
@@ -492,25 +500,18 @@ def contact_product(node_index, W, D, status, x_local, out_local):
     n_particles, corners, nn = W.shape
     dim = D.shape[2]
     y = np.empty(3)
+    z = np.empty(3)
     for p in range(n_particles):
         for c in range(corners):
             if status[p, c] == OPEN:
                 continue
-            for a in range(dim):
+            _gather_corner(W, node_index, p, c, dim, x_local, y)
+            for a in range(dim):                # z = -D_c y, once per corner
                 s = 0.0
-                for k in range(nn):
-                    s += W[p, c, k] * x_local[node_index[p, k], a]
-                y[a] = s
-            for k in range(nn):
-                w = W[p, c, k]
-                if w == 0.0:
-                    continue
-                i = node_index[p, k]
-                for a in range(dim):
-                    s = 0.0
-                    for b in range(dim):
-                        s += D[p, c, a, b] * y[b]
-                    out_local[i, a] -= w * s
+                for b in range(dim):
+                    s += D[p, c, a, b] * y[b]
+                z[a] = -s
+            _scatter_corner(W, node_index, p, c, dim, z, out_local)
 
 
 @jit

@@ -125,13 +125,10 @@ class ContactTool(NodalTerm):
         particle far from the tool into a barely supported node could
         otherwise be thrown into the tool by a Newton trial step (the
         frictional upsetting's outer surface at mid-height did)."""
-        n_all = len(self._x)
-        distance = np.empty(n_all)
+        distance = np.empty(len(self._x))
         kernels.particle_distances(self.kind, self.params, state.node_index, state.S, self._x,
-                                   np.zeros((int(np.max(state.node_index, initial=-1)) + 1, self.dim)),
-                                   self.offset, distance)
-        reach = (float(np.linalg.norm(self._increment)) + 2.0 * self.h
-                 + np.linalg.norm(self._half, axis=1) if n_all else np.zeros(0))
+                                   np.zeros((self._grid.n_local_nodes, self.dim)), self.offset, distance)
+        reach = float(np.linalg.norm(self._increment)) + 2.0 * self.h + np.linalg.norm(self._half, axis=1)
         self._candidates = np.flatnonzero(distance < reach)
         self._others = np.flatnonzero(~(distance < reach))
         c = self._candidates
@@ -151,21 +148,21 @@ class ContactTool(NodalTerm):
         kernels.corner_areas(self.kind, self.params, x, offsets, half,
                              self.offset + self._increment, self.axisymmetric, faces, area)
         self._faces = faces
-        self._cand = {"node_index": node_index, "active": active, "x": x,
-                      "history": self._history[c], "held": self._touching[c].astype(bool)}
+        self._cand = {"node_index": node_index, "active": active, "x": x, "history": self._history[c]}
         self._step = (state, W, offsets, area)
         self._u = None
         # the first Jacobian holds the corners that were touching (kernels.contact.HELD)
-        self._held = self._cand["held"]
+        self._held = self._touching[c].astype(bool)
         self._holding = bool(np.any(self._held))
 
-    def _evaluate(self, u_local, n_nodes):
-        """The corners at the iterate ``u_local`` (local; cached per iterate)."""
+    def _evaluate(self, u_local):
+        """The corners at the iterate ``u_local`` (ghosted-local; cached per
+        iterate: ``self._u`` is the iterate of ``self._local``)."""
         if self._u is not None and np.array_equal(self._u, u_local):
             return self._local
         state, W, offsets, area = self._step
         n, corners = area.shape
-        force = np.zeros((n_nodes, self.dim))
+        force = np.zeros((self._grid.n_local_nodes, self.dim))
         D = np.empty((n, corners, self.dim, self.dim))
         status = np.empty((n, corners), dtype=np.int8)
         pressure = np.empty((n, corners))
@@ -175,14 +172,13 @@ class ContactTool(NodalTerm):
         corner_force = np.empty((n, corners, self.dim))
         held = self._held if self._holding else np.zeros_like(self._held)
         cand = self._cand
-        touching = kernels.contact_forces(self.kind, self.params, cand["node_index"], W, cand["x"], offsets,
+        kernels.contact_forces(self.kind, self.params, cand["node_index"], W, cand["x"], offsets,
                                           u_local, self.offset + self._increment, self._increment,
                                           cand["history"], area, self._faces, self.kn, self.stick, self.mu,
                                           self.friction, held, force, D, status, pressure, traction, elastic,
                                           dissipation, corner_force)
-        self._u_converged = u_local
         self._local = {"force": force, "D": D, "status": status, "pressure": pressure,
-                       "traction": traction, "elastic": elastic, "dissipation": dissipation, "touching": touching,
+                       "traction": traction, "elastic": elastic, "dissipation": dissipation,
                        "corner_force": corner_force}
         self._u = u_local.copy()
         return self._local
@@ -190,7 +186,7 @@ class ContactTool(NodalTerm):
     def add_residual(self, u_owned, u_local, residual, grid):
         """The force on the body enters the residual as an external force
         does (-f). Collective."""
-        local = self._evaluate(u_local, grid.n_local_nodes)
+        local = self._evaluate(u_local)
         residual -= grid.sum_to_owned(local["force"])
 
     def _first_jacobian_done(self):
@@ -201,7 +197,7 @@ class ContactTool(NodalTerm):
             self._u = None
 
     def add_jacobian_values(self, u_local, grid, pattern, values):
-        local = self._evaluate(u_local, grid.n_local_nodes)
+        local = self._evaluate(u_local)
         W, cand = self._step[1], self._cand
         kernels.contact_blocks(cand["node_index"], cand["active"], W, local["D"], local["status"],
                                grid.ghost_ijk, pattern.width, pattern.indptr, pattern.slot_position,
@@ -210,13 +206,13 @@ class ContactTool(NodalTerm):
 
     def add_product(self, u_local, grid, x_local, out_local):
         self._first_jacobian_done()          # the matrix-free product is always the exact one
-        local = self._evaluate(u_local, grid.n_local_nodes)
+        local = self._evaluate(u_local)
         kernels.contact_product(self._cand["node_index"], self._step[1], local["D"], local["status"], x_local,
                                 out_local)
 
     def add_diagonal(self, u_local, grid, out_local):
         self._first_jacobian_done()
-        local = self._evaluate(u_local, grid.n_local_nodes)
+        local = self._evaluate(u_local)
         kernels.contact_diagonal(self._cand["node_index"], self._step[1], local["D"], local["status"], out_local)
 
     def predict(self, u_owned, grid, fixed):
@@ -268,7 +264,7 @@ class ContactTool(NodalTerm):
     def _evaluate_with(self, kn, u_local):
         saved, self.kn = self.kn, kn
         try:
-            return self._evaluate(u_local, self._grid.n_local_nodes)
+            return self._evaluate(u_local)
         finally:
             self.kn = saved
 
@@ -301,7 +297,7 @@ class ContactTool(NodalTerm):
         if len(others) and not explicit:     # an explicit step moves nothing a cell
             distance = np.empty(len(others))
             kernels.particle_distances(self.kind, self.params, state.node_index[others], state.S[others],
-                                       self._x[others], self._u_converged, self.offset + self._increment,
+                                       self._x[others], self._u, self.offset + self._increment,
                                        distance)
             reached = int(np.sum(distance < 0.0))
         if comm.allreduce(reached):

@@ -27,6 +27,8 @@ from pimpm.simulation import Simulation  # noqa: E402
 from pimpm.solver import NewtonSolver  # noqa: E402
 from pimpm.steps import implicit as implicit_step  # noqa: E402
 
+from finite_differences import jacobian_error  # noqa: E402 (tests/mpi/)
+
 dim = int(sys.argv[1][0])
 law = sys.argv[2]
 geometry = sys.argv[3]
@@ -90,27 +92,8 @@ problem.form_residual(None, X, R)
 problem.form_jacobian(None, X, solver.J, solver.J)
 status = term._local["status"]
 states = comm.allreduce(np.array([np.sum(status == k) for k in range(3)]))
-J_local = solver.J.convert("dense").getDenseArray().copy()
 free_local = ~state.fixed
-free_global = np.concatenate(comm.allgather(free_local))
-start, end = X.getOwnershipRange()
-h = 1e-8
-J_fd = np.zeros_like(J_local)
-for j in range(X.getSize()):              # test code: a loop over columns is fine here
-    if not free_global[j]:
-        continue
-    cols = []
-    for sign in (1.0, -1.0):
-        Xp = X.copy()
-        if start <= j < end:
-            Xp.getArray()[j - start] += sign * h
-        problem.form_residual(None, Xp, R)
-        cols.append(R.getArray().copy())
-    J_fd[:, j] = (cols[0] - cols[1]) / (2 * h)
-A = J_local[np.ix_(free_local, free_global)]
-B = J_fd[np.ix_(free_local, free_global)]
-err = comm.allreduce(float(np.max(np.abs(A - B))) if A.size else 0.0, op=MPI.MAX)
-scale = comm.allreduce(float(np.max(np.abs(B))) if B.size else 0.0, op=MPI.MAX)
+err, scale, _ = jacobian_error(problem, solver.J, X, R, free_local, comm, h=1e-8)
 # the matrix-free product (pimpm.implicit.shell) against the assembled matrix
 shell_problem = StepProblem(sim.grid, problem.residual_scale, terms=sim.terms)
 shell_solver = NewtonSolver(sim.grid, shell_problem, dict(sim.config["solver"], preset="matrix-free"))

@@ -18,6 +18,8 @@ from pimpm.config import validate
 from pimpm.simulation import Simulation
 from pimpm.steps import implicit as implicit_step
 
+from finite_differences import jacobian_error  # noqa: E402 (tests/mpi/)
+
 integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
@@ -145,29 +147,8 @@ if problem.coo:
     J_csr.axpy(-1.0, solver.J)
     coo_difference = J_csr.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
     J_csr.destroy()
-J_local = solver.J.convert("dense").getDenseArray().copy()   # owned rows x all columns
-
 free_local = ~state.fixed
-free_global = np.concatenate(comm.allgather(free_local))
-start, end = X.getOwnershipRange()
-h = 1e-6
-J_fd = np.zeros_like(J_local)
-for j in range(X.getSize()):               # test code: a loop over columns is fine here
-    if not free_global[j]:
-        continue
-    cols = []
-    for sign in (1.0, -1.0):
-        Xp = X.copy()
-        if start <= j < end:
-            Xp.getArray()[j - start] += sign * h
-        problem.form_residual(None, Xp, R)
-        cols.append(R.getArray().copy())
-    J_fd[:, j] = (cols[0] - cols[1]) / (2 * h)
-
-A = J_local[np.ix_(free_local, free_global)]
-B = J_fd[np.ix_(free_local, free_global)]
-err = comm.allreduce(float(np.max(np.abs(A - B))) if A.size else 0.0, op=MPI.MAX)
-scale = comm.allreduce(float(np.max(np.abs(B))) if B.size else 0.0, op=MPI.MAX)
+err, scale, J_local = jacobian_error(problem, solver.J, X, R, free_local, comm, h=1e-6)
 n_free = comm.allreduce(int(free_local.sum()))
 # Prescribed rows: identity times the scale, zero elsewhere (symmetric elimination).
 fixed_rows = J_local[state.fixed]
