@@ -171,6 +171,10 @@ def expected_summary(path):
             kinds = ("triangle", "quad") if dim == 2 else ("tetra", "hexahedron")
             elements = sum(len(c.data) for c in mesh.cells if c.type in kinds)
             bodies[b["name"]] = elements * geo.get("particles_per_element", 2) ** dim
+        elif geo["type"] == "particles":    # a CSV cloud: a particle a row after the header
+            with open(os.path.join(os.path.dirname(path), geo["file"])) as f:
+                rows = [line for line in f if line.strip() and not line.startswith("#")]
+            bodies[b["name"]] = len(rows) - 1
         elif geo["type"] == "box":
             bodies[b["name"]] = math.prod(
                 round((float(geo["upper"][i]) - float(geo["lower"][i])) / h[i] * ppc[i])

@@ -12,7 +12,7 @@ from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _f
     _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _ordered_bounds, _positive, _string)
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
-    CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
+    CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
     MODEL_PARAMETER_KEYS, RIGID_ONLY_GEOMETRIES)
 
 
@@ -276,11 +276,16 @@ def _validate_body(value, path, dim, materials, grid, functions=None, base_dir=N
             "constrain": constrain, **contact}
 
 
+#: the keys of Coulomb's law's regularization (contact: friction only)
+FRICTION_KEYS = ("slip_tolerance", "tangential_stiffness")
+
+
 def _validate_contact(sec, rigid, constrain, dim):
     """A rigid body's contact law (pimpm.contact): ``contact`` (bonded by
     default), ``friction_coefficient`` (friction only) and
-    ``contact_stiffness`` (frictionless and friction)."""
-    for key in ("contact", "friction_coefficient", "contact_stiffness"):
+    ``contact_stiffness`` (frictionless and friction), ``slip_tolerance``
+    and ``tangential_stiffness`` (friction only)."""
+    for key in ("contact", "friction_coefficient", "contact_stiffness") + FRICTION_KEYS:
         if sec.has(key) and not rigid:
             _fail(sec.sub(key), sec.data[key], f"no '{key}' on a deformable body (a contact law is "
                                                "a rigid body's, with rigid: true)")
@@ -298,9 +303,16 @@ def _validate_contact(sec, rigid, constrain, dim):
         if mu < 0.0:
             _fail(sec.sub("friction_coefficient"), sec.data["friction_coefficient"], expected)
         out["friction_coefficient"] = mu
+        for key, default in zip(FRICTION_KEYS, (DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS)):
+            value = sec.optional(key)
+            out[key] = default if value is _MISSING else _positive(value, sec.sub(key))
     elif mu is not _MISSING:
         _fail(sec.sub("friction_coefficient"), mu, f"no friction_coefficient with contact: {law} "
                                                    "(it applies only with contact: friction)")
+    for key in FRICTION_KEYS:
+        if law != "friction" and sec.has(key):
+            _fail(sec.sub(key), sec.data[key], f"no {key} with contact: {law} "
+                                               "(it applies only with contact: friction)")
     stiffness = sec.optional("contact_stiffness")
     if law in ("frictionless", "friction"):
         out["contact_stiffness"] = DEFAULT_CONTACT_STIFFNESS if stiffness is _MISSING else \

@@ -39,13 +39,18 @@ MODEL_PARAMETER_KEYS = tuple(dict.fromkeys(k for m in MODELS.values() for k in m
 MATERIAL_KEYS = ("model", "density") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "function", "constrain", "contact", "friction_coefficient",
-             "contact_stiffness")
+             "contact_stiffness", "slip_tolerance", "tangential_stiffness")
 #: how a rigid body meets the material (pimpm.contact): bonded (it prescribes
 #: the nodes its particles touch), frictionless or friction (unilateral
 #: contact at the body's surface, Coulomb friction with friction_coefficient)
 CONTACT_LAWS = ("bonded", "frictionless", "friction")
 #: the contact penalty per unit area is contact_stiffness x (largest P-wave modulus) / h
 DEFAULT_CONTACT_STIFFNESS = 100.0
+#: Coulomb's law regularized (pimpm.kernels.contact.contact_point): a sticking point's
+#: tangential stiffness is mu p / (slip_tolerance h), at most tangential_stiffness x
+#: (largest P-wave modulus) / h; docs/VALIDATION.md measures what each costs
+DEFAULT_SLIP_TOLERANCE = 1e-3
+DEFAULT_TANGENTIAL_STIFFNESS = 0.3
 GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius"),
                  "cylinder": ("type", "lower", "upper", "axis", "center", "radius"),
                  "half_space": ("type", "point", "normal"),

@@ -237,7 +237,7 @@ def contact_faces(kind, params, x, offset_end, faces):
 
 
 @jit
-def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction, dim, f, D, traction,
+def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, friction, dim, f, D, traction,
                   elastic, face=-1, hold=False):
     """The contact law at one point: the force ``f`` on the body (dim), its
     derivative ``D`` = df/dy (dim x dim), the tangential traction on the
@@ -253,7 +253,12 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
     pressure, so whether a point sticks is decided on a length (a thousandth
     of a cell), not on a traction divided by a penalty stiffness: at the
     small pressures of a block under its own weight the latter is 1e-11 m,
-    below what Newton's iterates can resolve. The elastic slip is carried
+    below what Newton's iterates can resolve. At high pressures the
+    stiffness is capped at ``kt`` (per area and length; 0: no cap), the
+    classical penalty: a point sticks while kt |s| <= mu p, so its elastic
+    slip limit grows to mu p / kt; a tangential stiffness far above the
+    body's own makes Newton chase the stick-slip front point by point
+    (docs/VALIDATION.md, the frictional billet). The elastic slip is carried
     (``elastic``, the next step's ``history``), so a sticking point does not
     creep. ``hold``: the point was in contact at the end of the last step;
     if it is open now but within ``stick`` of the tool, D gets the penalty's
@@ -308,22 +313,28 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, mu, friction,
     t = np.empty(3)
     dt = np.empty((3, 3))
     plastic = 0.0
-    if norm <= stick:                         # stick: t = -k s, k = mu p / stick
+    # the tangential stiffness k = mu p / stick, at most kt (if kt > 0): beyond
+    # the pressure kt stick / mu the elastic slip limit grows as mu p / kt
+    capped = kt > 0.0 and mu * p > kt * stick
+    limit = mu * p / kt if capped else stick
+    if norm <= limit:                         # stick: t = -k s
         status = STICK
-        k = mu * p / stick
+        k = kt if capped else mu * p / stick
         for a in range(dim):
             t[a] = -k * s[a]
             elastic[a] = s[a]
             for b in range(dim):
-                dt[a, b] = -k * ds[a, b] + s[a] * mu * kn * n[b] / stick
+                dt[a, b] = -k * ds[a, b]
+                if not capped:                # dk/dy = (mu / stick) dp/dy
+                    dt[a, b] += s[a] * mu * kn * n[b] / stick
     else:                                     # slip: t = -mu p e, e = s / |s|
         status = SLIP
-        plastic = norm - stick                # the slip beyond the elastic one
+        plastic = norm - limit                # the slip beyond the elastic one
         e = np.empty(3)
         for a in range(dim):
             e[a] = s[a] / norm
             t[a] = -mu * p * e[a]
-            elastic[a] = stick * e[a]
+            elastic[a] = limit * e[a]
         for a in range(dim):
             for b in range(dim):
                 proj = 0.0
@@ -428,7 +439,7 @@ def _scatter_corner(W, node_index, p, c, dim, vector, out):
 
 @jit
 def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end, increment, history,
-                   area, faces, kn, stick, mu, friction, held, force_local, D, status, pressure, traction,
+                   area, faces, kn, stick, kt, mu, friction, held, force_local, D, status, pressure, traction,
                    elastic, dissipation, corner_force):
     """The contact term at the iterate ``u_local``: each corner's force on
     the body scattered to its particle's nodes (added to ``force_local``),
@@ -449,7 +460,7 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
             _corner_at(W, node_index, u_local, x, offsets, offset_end, p, c, dim, y, moved)
             for a in range(dim):
                 slip[a] = moved[a] - increment[a]
-            s, pr, plastic = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, mu,
+            s, pr, plastic = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, kt, mu,
                                   friction, dim, f, D[p, c], t, elastic[p, c], faces[p], held[p, c])
             status[p, c] = s
             pressure[p, c] = pr

@@ -28,8 +28,6 @@ from .base import NodalTerm
 #: slip, and whether it was in contact at the end of the last step
 SLIP_FIELD = "contact_slip_{}"
 TOUCHING_FIELD = "contact_touching_{}"
-#: the elastic slip a sticking point may take, in cells (pimpm.kernels.contact.contact_point)
-STICK_SLIP = 1e-3
 
 
 def geometry_code(geometry, dim, h):
@@ -65,7 +63,7 @@ class ContactTool(NodalTerm):
     couples_particles = True
 
     def __init__(self, index, name, geometry, dim, h, velocity, stiffness, friction_coefficient=None,
-                 function=ONE, axisymmetric=False):
+                 function=ONE, axisymmetric=False, slip_tolerance=1e-3, tangential_stiffness=0.0):
         self.index = index
         self.name = name
         self.kind, self.params = geometry_code(geometry, dim, h)
@@ -73,7 +71,8 @@ class ContactTool(NodalTerm):
         self.velocity = np.asarray(velocity, dtype=float)
         self.function = function
         self.kn = float(stiffness)                   # the normal penalty per unit area
-        self.stick = STICK_SLIP * h                  # the elastic slip of a sticking point
+        self.stick = slip_tolerance * h              # the elastic slip of a sticking point (at least)
+        self.kt = float(tangential_stiffness)        # the cap of the tangential stiffness per area
         self.friction = friction_coefficient is not None
         self.mu = float(friction_coefficient or 0.0)
         self.axisymmetric = axisymmetric
@@ -98,10 +97,14 @@ class ContactTool(NodalTerm):
         h = min((u - lo) / n for lo, u, n in zip(grid["lower"], grid["upper"], grid["cells"]))
         modulus = max(m["bulk_modulus"] + 4.0 / 3.0 * m["shear_modulus"]
                       for m in config["materials"].values())
-        mu = body.get("friction_coefficient") if body["contact"] == "friction" else None
+        friction = {}
+        if body["contact"] == "friction":
+            friction = {"friction_coefficient": body["friction_coefficient"],
+                        "slip_tolerance": body["slip_tolerance"],
+                        "tangential_stiffness": body["tangential_stiffness"] * modulus / h}
         return cls(index, body["name"], body["geometry"], dim, h, body["velocity"],
-                   body["contact_stiffness"] * modulus / h, mu, lookup(functions or {}, body.get("function")),
-                   axisymmetric=config["kinematics"] == "axisymmetric")
+                   body["contact_stiffness"] * modulus / h, function=lookup(functions or {}, body.get("function")),
+                   axisymmetric=config["kinematics"] == "axisymmetric", **friction)
 
     # ----------------------------------------------------------------- the step
     def begin_step(self, context):
@@ -174,7 +177,7 @@ class ContactTool(NodalTerm):
         cand = self._cand
         kernels.contact_forces(self.kind, self.params, cand["node_index"], W, cand["x"], offsets,
                                           u_local, self.offset + self._increment, self._increment,
-                                          cand["history"], area, self._faces, self.kn, self.stick, self.mu,
+                                          cand["history"], area, self._faces, self.kn, self.stick, self.kt, self.mu,
                                           self.friction, held, force, D, status, pressure, traction, elastic,
                                           dissipation, corner_force)
         self._local = {"force": force, "D": D, "status": status, "pressure": pressure,

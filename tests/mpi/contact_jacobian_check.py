@@ -1,9 +1,11 @@
 """Finite-difference check of the assembled Jacobian with a rigid tool in
 unilateral contact (pimpm.terms.contact), run under mpiexec.
 
-    contact_jacobian_check.py DIM LAW GEOMETRY [INTEGRATOR [KINEMATICS [SHAPE]]]
+    contact_jacobian_check.py DIM LAW GEOMETRY [INTEGRATOR [KINEMATICS [SHAPE [uncapped]]]]
 
-(defaults: newmark, plane strain or 3d, gimp).
+(defaults: newmark, plane strain or 3d, gimp; ``uncapped``: friction without
+the cap on the tangential stiffness, so that every sticking corner's
+stiffness is mu p / stick; by default most pressing corners are capped).
 
 A block under gravity is pressed by a tool (LAW: frictionless or friction;
 GEOMETRY: box, ball or half_space, the half-space inclined and moving
@@ -35,6 +37,7 @@ geometry = sys.argv[3]
 integrator = sys.argv[4] if len(sys.argv) > 4 else "newmark"
 kinematics = sys.argv[5] if len(sys.argv) > 5 else ("plane_strain" if dim == 2 else "3d")
 shape = sys.argv[6] if len(sys.argv) > 6 else "gimp"
+uncapped = len(sys.argv) > 7 and sys.argv[7] == "uncapped"
 comm = MPI.COMM_WORLD
 zero = [0.0] * (dim - 1)
 lower, upper = [0.0] * dim, [2.0] * (dim - 1) + [2.5]
@@ -53,6 +56,8 @@ tool = {"name": "tool", "rigid": True, "contact": law, "geometry": tools[geometr
         "particles_per_cell": 1, "velocity": [sideways] + [0.0] * (dim - 2) + [down]}
 if law == "friction":
     tool["friction_coefficient"] = 0.2
+    if uncapped:
+        tool["tangential_stiffness"] = 1e12
 raw = {
     "grid": {"lower": lower, "upper": upper, "cells": cells, "shape_functions": shape,
              "boundary": {"ymin" if dim == 2 else "zmin": "fixed"}},
@@ -77,8 +82,6 @@ for _ in range(2):
     sim.advance(0.02)
 term.friction = law == "friction"
 rng = np.random.default_rng(7 + comm.rank)
-field = sim.particles[term.field]
-field[:] = 0.5e-4 * rng.standard_normal(field.shape)   # elastic slips about the stick limit (2.5e-4 m)
 state, _ = implicit_step.prepare(sim, 0.02)
 solver, problem = sim.solver, sim.problem
 solver.prepare(state)
@@ -88,10 +91,28 @@ X = solver.X.duplicate()
 X.getArray()[:] = np.where(state.fixed, state.fixed_value, state.predictor())
 R = solver.R.duplicate()
 term._holding = False          # the exact tangent (not the first iteration's held corners)
+if term.friction:
+    # a random elastic slip carried into the step, about each pressing corner's stick
+    # limit at the guess (so that corners stick and slip), and unless ``uncapped`` a cap
+    # on the tangential stiffness that half of them reach (mu p > kt stick)
+    problem.form_residual(None, X, R)
+    pressure = term._local["pressure"]
+    pressing = comm.allgather(pressure[pressure > 0.0])
+    if not uncapped:       # the cap between the two middle distinct pressures (no corner on its kink)
+        levels = np.unique(np.concatenate(pressing))
+        levels = levels[np.concatenate([[True], np.diff(levels) > 1e-6 * levels[1:]])]
+        middle = levels[max(len(levels) // 2 - 1, 0):len(levels) // 2 + 1]
+        term.kt = term.mu * float(np.sqrt(middle[0] * middle[-1])) / term.stick
+    limit = np.maximum(term.stick, term.mu * pressure / term.kt)
+    history = term._cand["history"]
+    history[:] = (limit * rng.uniform(0.3, 1.7, limit.shape))[..., None] * rng.standard_normal(history.shape)
+    term._history[term._candidates] = history     # as if carried in (the shell's step reads it)
+    term._u = None
 problem.form_residual(None, X, R)
 problem.form_jacobian(None, X, solver.J, solver.J)
 status = term._local["status"]
-states = comm.allreduce(np.array([np.sum(status == k) for k in range(3)]))
+capped = (status == 1) & (term.mu * term._local["pressure"] > term.kt * term.stick)
+states = comm.allreduce(np.array([np.sum(status == k) for k in range(3)] + [np.sum(capped)]))
 free_local = ~state.fixed
 err, scale, _ = jacobian_error(problem, solver.J, X, R, free_local, comm, h=1e-8)
 # the matrix-free product (pimpm.implicit.shell) against the assembled matrix
@@ -114,8 +135,9 @@ relative = err / scale
 if comm.rank == 0:
     print(f"contact jacobian {dim}d {law} {geometry} {integrator} {kinematics} {shape} ranks {comm.size}: "
           f"relative error {relative:.3e}, "
-          f"shell {shell_error:.3e}, corners open/stick/slip {states.tolist()}")
+          f"shell {shell_error:.3e}, corners open/stick/slip {states[:3].tolist()} "
+          f"(sticking with the capped stiffness {states[3]})")
 ok = relative < 1e-5 and shell_error < 1e-12 and states[1] + states[2] > 0
-if law == "friction" and geometry == "box":   # both stick and slip are checked
-    ok = ok and states[1] > 0 and states[2] > 0
+if law == "friction" and geometry == "box":   # stick (capped and not, as asked) and slip are checked
+    ok = ok and states[1] > 0 and states[2] > 0 and (states[3] == 0 if uncapped else 0 < states[3] < states[1])
 sys.exit(0 if ok else 1)
