@@ -21,7 +21,7 @@ usage: [mpiexec -n N] python -m pimpm INPUT.yaml [--check] [--overwrite] [--rest
                  --set bodies[1].velocity=[0,-25]
   --restart      continue from OUTDIR/checkpoint.h5 (written every
                  output.checkpoint_every steps, and when a run stops on a
-                 failure, SIGTERM or SIGINT); end_time, solver and output
+                 failure, SIGTERM, SIGINT or SIGHUP); end_time, solver and output
                  settings may change, the grid, materials and bodies may not
   --help         this text
 
@@ -34,7 +34,7 @@ Output: OUTDIR/results.h5, particles.xdmf and grid.xdmf (open in ParaView),
 history.csv (one row per step), checkpoint.h5. Exit status: 0 done,
 1 numerical failure (results up to the last good step are kept, and a
 checkpoint of it) or an unexpected error (on any rank: every rank stops),
-2 bad input or usage, 143 / 130 stopped by SIGTERM / SIGINT (the step in
+2 bad input or usage, 143 / 130 / 129 stopped by SIGTERM / SIGINT / SIGHUP (the step in
 progress is abandoned; results and a checkpoint of the last good step are
 kept; a second signal stops at once).
 """
@@ -107,6 +107,8 @@ def main(argv=None):
         return fail(problem)
     import petsc4py
     petsc4py.init([sys.argv[0]] + petsc_args)
+    from petsc4py import PETSc  # noqa: F401  (PetscInitialize installs its own signal handlers:
+    interrupt.install()         # SIGHUP's among them, which would abort the run; ours go over them)
 
     if unknown:
         return fail(f"unknown argument(s) {' '.join(unknown)}: see python -m pimpm --help")

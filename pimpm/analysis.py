@@ -12,6 +12,8 @@ from . import interrupt
 from .errors import StepFailed, UsageError
 from .io import History, ResultWriter, prepare_output_directory, write_results
 from .io.checkpoint import PHYSICS_KEYS, physics_json, read_checkpoint, write_checkpoint
+from .io.history import history_columns
+from .io.restart import check_restart_files
 from .simulation import Simulation
 from .stages import log_stage
 from .step_control import TimeStepControl
@@ -297,11 +299,22 @@ def run(config, comm, overwrite=False, echo=print, restart=False, input_path=Non
     control = TimeStepControl(config["time"])
     if restart:
         checkpoint = open_checkpoint(config, comm)
-        sim = Simulation(config, comm, checkpoint)
+        try:
+            sim = Simulation(config, comm, checkpoint)
+        except KeyError as err:         # a particle field the run needs is not in it
+            raise UsageError(f"output.directory = {directory!r}: checkpoint.h5 has no {err}: expected "
+                             "the checkpoint of a run of this input") from None
         control.restore(checkpoint.control)
         if control.done(sim.time):
             raise UsageError(f"time.end_time = {config['time']['end_time']!r}: expected a time after the "
                              f"checkpoint's t = {sim.time:.6g} (step {sim.step_index}) to continue to")
+        # a restart is a transaction: what it continues is checked before anything is written
+        columns = history_columns([b.name for b in sim.rigid_bodies], sim.dim, [load.name for load in sim.loads],
+                                  [t.name for t in sim.contact_tools])
+        try:
+            check_restart_files(comm, directory, sim.grid, columns)
+        except ValueError as err:
+            raise UsageError(f"output.directory = {directory!r}: cannot continue its results: {err}") from None
     else:
         sim = Simulation(config, comm)          # bad solver options fail here, before any output
         prepare_output_directory(comm, directory, overwrite)

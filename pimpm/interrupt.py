@@ -1,11 +1,12 @@
-"""Stopping a run on SIGTERM or SIGINT without losing it (docs/RELIABILITY.md).
+"""Stopping a run on SIGTERM, SIGINT or SIGHUP (a closed terminal) without
+losing it (docs/RELIABILITY.md).
 
 The command line installs :func:`install`: the first signal only raises a
 flag; the time loop and the residual callback reduce that flag over the
 ranks (so a signal that reached one rank stops all of them at the same
 point), the step in progress is abandoned, a checkpoint of the last good
 step and its output are written, and every rank exits with 128 + the
-signal's number (143 for SIGTERM, 130 for SIGINT). A second signal stops
+signal's number (143 for SIGTERM, 130 for SIGINT, 129 for SIGHUP). A second signal stops
 the process at once.
 
 Under OpenMPI a signal to mpiexec reaches the ranks as SIGTERM about one
@@ -14,7 +15,7 @@ the checkpoint of a moderate problem (checkpoints are written aside and
 renamed, so a kill in the middle leaves the previous one intact).
 
 Test-only: ``PIMPM_INJECT_SIGNAL=NAME:RANK:STEP`` makes rank RANK send itself
-the signal NAME (TERM or INT) at the start of step STEP, through the real
+the signal NAME (TERM, INT or HUP) at the start of step STEP, through the real
 handler.
 """
 import os
@@ -25,7 +26,7 @@ from mpi4py import MPI
 
 from .faults import parse_injection
 
-SIGNALS = {"TERM": signal.SIGTERM, "INT": signal.SIGINT}
+SIGNALS = {"TERM": signal.SIGTERM, "INT": signal.SIGINT, "HUP": signal.SIGHUP}
 
 #: the first signal received (0: none)
 received = 0
@@ -51,7 +52,7 @@ def _handler(signum, frame):
 
 
 def install():
-    """Catch SIGTERM and SIGINT (the command line does; library use does not)."""
+    """Catch SIGTERM, SIGINT and SIGHUP (the command line does; library use does not)."""
     for sig in SIGNALS.values():
         signal.signal(sig, _handler)
 

@@ -223,6 +223,12 @@ def seed_bodies(config, grid, kinematics, densities, history_fields):
     return particles, rigid
 
 
+#: the fields of every material particle (besides its material's history, h_*)
+#: and of every rigid particle, as seeded: what a checkpoint must hold
+MATERIAL_FIELDS = ("x", "x0", "v", "a", "F", "stress", "volume0", "mass", "half_size", "body", "id", "surface")
+RIGID_FIELDS = ("x", "x0", "v", "body", "id", "half_size")
+
+
 def inside_geometry(x, geometry, tolerance):
     """True for positions strictly inside a body's region (by more than
     ``tolerance`` per axis from its box faces; strictly inside a curved

@@ -30,7 +30,7 @@ from .loads import make_loads, particle_forces
 from .options import with_command_line
 from .partition import balanced_grid, particle_imbalance
 from .particles import ParticleSet, migrate, sort_by_footprint
-from .seeding import overlapping_bodies, particles_per_body, seed_bodies
+from .seeding import MATERIAL_FIELDS, RIGID_FIELDS, overlapping_bodies, particles_per_body, seed_bodies
 from .shape import make_shape
 from .solver import NewtonSolver, diagnose_solver_options
 from .stages import log_stage, log_stages
@@ -137,6 +137,14 @@ class Simulation:
         """The state of a checkpoint: particles (on the same number of ranks,
         each rank's own in their order; otherwise the ones in this rank's
         cells), time, step, work and the initial count and mass. Collective."""
+        history = {"h_" + k for material in self.materials for k in material.model.initial_history()}
+        required = {"particles": set(MATERIAL_FIELDS) | history | {load.field for load in self.loads},
+                    "rigid": set(RIGID_FIELDS)}
+        for name, data in checkpoint.sets.items():
+            missing = sorted(required[name] - set(data))
+            if missing:
+                raise SetupError(f"the checkpoint's {name} have no {', '.join(missing)}: expected the "
+                                 "checkpoint of a run of this input, intact")
         fields = {}
         for name, data in checkpoint.sets.items():
             pset = ParticleSet(data)

@@ -63,9 +63,16 @@ def _check_tolerances(snes, yaml_options, ksp=None):
         k_rtol, k_atol, _, k_max_it = ksp.getTolerances()
         values.update(ksp_rtol=k_rtol, ksp_atol=k_atol, ksp_max_it=k_max_it)
     for name, value in values.items():
-        if value < 0 or (name.endswith("max_it") and value == 0):
+        # an infinite tolerance makes every step "converge" at once, a relative one of
+        # 1 or more after the first iteration: silent wrong answers (issue 32)
+        if name.endswith("max_it"):
+            bad, what = value < 1, "an integer >= 1"
+        elif name.endswith("rtol"):
+            bad, what = not 0.0 <= value < 1.0, "a number >= 0 and < 1"
+        else:
+            bad, what = not 0.0 <= value < float("inf"), "a finite number >= 0"
+        if bad:
             where = f"solver.petsc.{name}" if name in yaml_options else f"-{name}"
-            what = "an integer >= 1" if name.endswith("max_it") else "a number >= 0"
             raise ValueError(f"{where} = {value:g}: expected {what}")
 
 

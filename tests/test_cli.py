@@ -409,6 +409,24 @@ BAD_INPUTS = {
     "negative Krylov tolerance": (
         None, yaml_case(lambda cfg: None, "-pimpm_preset", "cg-gamg", "-ksp_rtol", "-5"),
         ["-ksp_rtol", "-5", "number >= 0"]),
+    # issue 32: runs that would never end
+    "a first step of 1e-200 that never grows": (
+        None, yaml_case(lambda cfg: cfg["time"].update(dt_initial=1e-200, ramp_factor=1.0)),
+        ["time.end_time", "time.dt_initial = 1e-200 (time.ramp_factor 1)"]),
+    "2000 step cuts": (
+        None, yaml_case(lambda cfg: cfg["time"].update(max_cuts=2000)),
+        ["time.max_cuts = 2000", "from 0 to 50"]),
+    # issue 32: tolerances that make every step "converge" at once
+    "infinite Newton tolerance": (
+        None, yaml_case(lambda cfg: None, "-snes_atol", "inf"), ["-snes_atol = inf", "finite number >= 0"]),
+    "relative Newton tolerance beyond the float range": (
+        None, yaml_case(lambda cfg: None, "-snes_rtol", "1e400"), ["-snes_rtol = inf", "number >= 0 and < 1"]),
+    "relative Newton tolerance of 1 in the YAML": (
+        None, yaml_case(set_key(["solver"], {"petsc": {"snes_rtol": 1.0}})),
+        ["solver.petsc.snes_rtol = 1", "number >= 0 and < 1"]),
+    "NaN Krylov tolerance": (
+        None, yaml_case(lambda cfg: None, "-pimpm_preset", "cg-gamg", "-ksp_atol", "nan"),
+        ["-ksp_atol = nan", "finite number >= 0"]),
     "unknown factorization package": (
         None, yaml_case(lambda cfg: None, "-pc_factor_mat_solver_type", "nonsense"),
         ["-pc_factor_mat_solver_type = 'nonsense'", "factorization package"]),

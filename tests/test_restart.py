@@ -248,3 +248,97 @@ def test_restarts_that_cannot_be_are_refused(name, tmp_path):
     assert len(errors) == 1 and all(w in errors[0] for w in wanted), proc.stderr
     after = sorted(os.listdir(tmp_path / "out")) if (tmp_path / "out").exists() else []
     assert after == before
+
+
+def _set_attr(name, value):
+    def edit(out):
+        with h5py.File(out / "checkpoint.h5", "r+") as f:
+            f.attrs[name] = value
+    return edit
+
+
+def _drop_field(out):
+    with h5py.File(out / "checkpoint.h5", "r+") as f:
+        del f["particles/F"]
+
+
+def _append(name, text):
+    def edit(out):
+        with open(out / name, "a") as f:
+            f.write(text)
+    return edit
+
+
+def _replace(name, text):
+    def edit(out):
+        (out / name).write_text(text)
+    return edit
+
+
+def _link(name):
+    def edit(out):
+        moved = out.parent / f"elsewhere-{name}"
+        os.replace(out / name, moved)
+        os.symlink(moved, out / name)
+    return edit
+
+
+DAMAGED = {
+    "negative step": (_set_attr("step", -5), "a checkpoint of step -5"),
+    "NaN time": (_set_attr("time", float("nan")), "time nan"),
+    "a particle field missing": (_drop_field, "the checkpoint's particles have no F"),
+    "a garbage history row": (_append("history.csv", "garbage,row\n"), "is not a row of"),
+    "a foreign results file": (_replace("results.h5", "not HDF5\n"), "is not a readable HDF5 file"),
+    "other history columns": (_replace("history.csv", "a,b\n1,2\n"), "has other columns than this run writes"),
+    "a linked results file": (_link("results.h5"), "is a symbolic link"),
+    "a linked history": (_link("history.csv"), "is a symbolic link"),
+}
+
+
+@pytest.fixture(scope="module")
+def checkpointed_bar(tmp_path_factory):
+    """The bar in tension stopped after 5 steps with a checkpoint of each."""
+    base = tmp_path_factory.mktemp("bar")
+    proc = pimpm(1, [os.path.join(ROOT, "inputs", "bar_tension.yaml"), "--output", "o",
+                     "--set", "output.checkpoint_every=1", "--set", "time.end_time=5.17"], base)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return base / "o"
+
+
+@pytest.mark.parametrize("name", list(DAMAGED))
+def test_a_restart_from_damaged_files_changes_nothing(name, checkpointed_bar, tmp_path):
+    """A restart is a transaction (issue 32, defects 1 and 2): a damaged
+    checkpoint, history or results file, or a linked one, is one line and
+    exit status 2, and every file of the output directory (and a link's
+    target) is byte for byte what it was."""
+    import shutil
+    out = tmp_path / "o"
+    shutil.copytree(checkpointed_bar, out)
+    edit, wanted = DAMAGED[name]
+    edit(out)
+
+    def snapshot():
+        return {p.name: p.read_bytes() for p in sorted(tmp_path.rglob("*")) if p.is_file()}
+
+    before = snapshot()
+    proc = pimpm(1, [os.path.join(ROOT, "inputs", "bar_tension.yaml"), "--output", "o",
+                     "--set", "output.checkpoint_every=1", "--restart"], tmp_path)
+    assert proc.returncode == 2, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("pimpm: error:")]
+    assert len(errors) == 1 and wanted in errors[0], proc.stderr
+    assert snapshot() == before
+
+
+def test_a_closed_terminal_stops_the_run_with_a_checkpoint(tmp_path):
+    """SIGHUP (issue 32) is handled like SIGTERM: the run stops at the next
+    step boundary with status 129, a checkpoint of the last good step and
+    its results, and --restart continues it to the end."""
+    args = [os.path.join(ROOT, "inputs", "bar_tension.yaml"), "--output", "o"]
+    proc = pimpm(1, args, tmp_path, env={"PIMPM_INJECT_SIGNAL": "HUP:0:4"})
+    assert proc.returncode == 129, proc.stderr[-2000:]
+    assert "interrupted by SIGHUP" in proc.stderr
+    assert os.path.exists(tmp_path / "o" / "checkpoint.h5")
+    proc = pimpm(1, args + ["--restart"], tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert len(history(tmp_path / "o")[1]) == 10

@@ -94,3 +94,20 @@ def test_curved_bodies_have_their_volume_to_the_lattice_error(shape):
         assert error < 0.25 * h_sub * surface / exact, (ppc, error)
         errors.append(error)
     assert errors[-1] < 0.01 and errors[-1] < max(errors[:-1])
+
+
+def test_a_restart_asks_the_checkpoint_for_every_seeded_field():
+    """pimpm.seeding's MATERIAL_FIELDS and RIGID_FIELDS (what a restart
+    requires of a checkpoint) are the fields seeding makes, besides the
+    materials' history and the loads' shares."""
+    import os
+    from pimpm.config import load_config
+    from pimpm.seeding import MATERIAL_FIELDS, RIGID_FIELDS
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    sim = Simulation(load_config(os.path.join(root, "inputs", "upsetting.yaml")), MPI.COMM_WORLD)
+    history = {name for name in sim.particles.fields if name.startswith("h_")}
+    assert history
+    terms = {name for name in sim.particles.fields if name.startswith("contact_")}
+    assert set(sim.particles.fields) - history - terms == set(MATERIAL_FIELDS)
+    assert set(sim.rigid.fields) == set(RIGID_FIELDS)
+    sim.solver.destroy()

@@ -51,6 +51,15 @@ def check_derived(config):
             _fail("time.dt", dt, "a step that is a normal number (between 1e-250 and 1e250)")
     with _no_float_errors():
         steps = time["end_time"] / dt_step
+    start = time.get("dt_initial")
+    if dt is not None and start is not None and start < dt:
+        # the step starts at dt_initial and grows by ramp_factor a step up to dt; a factor of 1
+        # never grows it (issue 32: 1e-200 with a factor of 1 ran forever)
+        with _no_float_errors():
+            if time["ramp_factor"] == 1.0:
+                steps, what = time["end_time"] / start, f"time.dt_initial = {_fmt(start)} (time.ramp_factor 1)"
+            else:
+                steps += math.log(dt / start) / math.log(time["ramp_factor"])
     if not math.isfinite(steps) or steps > MAX_STEPS:
         _fail("time.end_time", time["end_time"], f"at most {MAX_STEPS:,} steps of {what}; "
                                                  f"that makes {steps:.3g}")

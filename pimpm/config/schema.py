@@ -56,6 +56,8 @@ GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "
                  "half_space": ("type", "point", "normal"),
                  "mesh": ("type", "file", "particles_per_element", "scale", "offset"),
                  "particles": ("type", "file", "scale", "offset")}
+#: the most step cuts a step may take (time.max_cuts; each halves the step)
+MAX_CUTS = 50
 TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "gravity_function", "dt_initial", "ramp_factor",
              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
              "stress_update", "formulation") + tuple(

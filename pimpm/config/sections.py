@@ -7,8 +7,8 @@ from .checks import (_MISSING, _Section, _bool, _enum, _fail, _float, _float_vec
 from ..integrators import INTEGRATORS as _INTEGRATORS
 from .schema import (AXES, BOUNDARY_ALIASES, BOUNDARY_TYPES, CONVERGENCE_KEYS, CONVERGENCE_TESTS,
     DEFAULT_OUTPUT_DIRECTORY, DEFAULT_SHAPE_FUNCTIONS, DEFAULT_WEAK_NODE_FRACTION, FORMULATIONS, GRID_KEYS,
-    INTEGRATORS, OUTPUT_KEYS, PARALLEL_KEYS, SHAPE_FUNCTIONS, SOLVER_KEYS, SOLVER_PRESETS, STRESS_UPDATES,
-    TIME_KEYS)
+    INTEGRATORS, MAX_CUTS, OUTPUT_KEYS, PARALLEL_KEYS, SHAPE_FUNCTIONS, SOLVER_KEYS, SOLVER_PRESETS,
+    STRESS_UPDATES, TIME_KEYS)
 
 
 def _validate_face(b, path, dim, functions):
@@ -118,6 +118,9 @@ def _validate_time(value, path, dim, functions=None):
         _fail(sec.sub("ramp_factor"), ramp, "a number >= 1")
     cuts = sec.optional("max_cuts")
     cuts = 4 if cuts is _MISSING else _int(cuts, sec.sub("max_cuts"), minimum=0)
+    if cuts > MAX_CUTS:        # each cut halves the step: an unbounded count creeps on forever
+        _fail(sec.sub("max_cuts"), sec.data["max_cuts"], f"an integer from 0 to {MAX_CUTS} (each cut halves "
+                                                           f"the step: {MAX_CUTS} cuts take it to 1e-15 of itself)")
     easy = sec.optional("easy_newton_iterations")
     easy = 6 if easy is _MISSING else _int(easy, sec.sub("easy_newton_iterations"), minimum=1)
     limit = sec.optional("max_particle_displacement")

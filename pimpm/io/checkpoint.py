@@ -102,6 +102,8 @@ class Checkpoint:
         self.step = int(attrs["step"])
         self.time = float(attrs["time"])
         self.ranks = int(attrs["ranks"])
+        if self.step < 0 or not np.isfinite(self.time) or self.ranks < 1:
+            raise ValueError(f"a checkpoint of step {self.step}, time {self.time}, {self.ranks} ranks")
         self.physics = attrs["physics"]
         self.control = json.loads(attrs["control"])
         self.work = json.loads(attrs["work"])

@@ -12,6 +12,23 @@ from .safe_files import atomic_write_text, open_append, open_new
 CONTACT_COLUMNS = ("normal_force", "tangential_force", "contact_area", "contact_points")
 
 
+def history_columns(rigid_names, dim, load_names=(), contact_names=()):
+    """The columns of ``history.csv`` for these rigid bodies, loads and
+    contact tools."""
+    columns = ["step", "time", "dt", "newton_iterations", "linear_iterations",
+               "backtracks", "linear_fallbacks", "step_cuts",
+               "residual_initial", "residual_final", "kinetic_energy", "strain_energy",
+               "total_energy", "external_work"]
+    for name in list(rigid_names) + list(load_names):
+        columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
+        columns += [f"{name}_displacement_{a}" for a in "xyz"[:dim]]
+    for name in contact_names:        # tools in unilateral contact (pimpm.terms.contact)
+        columns += [f"{name}_{c}" for c in CONTACT_COLUMNS]
+    if contact_names:
+        columns.append("frictional_dissipation")
+    return columns + ["particle_imbalance", "wall_time"]
+
+
 class History:
     """``continue_after``: continue an existing file (a restart), keeping its
     rows up to that step and dropping those after it."""
@@ -22,21 +39,7 @@ class History:
         self.load_names = list(load_names)
         self.contact_names = list(contact_names)
         self.dim = dim
-        self.columns = ["step", "time", "dt", "newton_iterations", "linear_iterations",
-                        "backtracks", "linear_fallbacks", "step_cuts",
-                        "residual_initial", "residual_final", "kinetic_energy", "strain_energy",
-                        "total_energy", "external_work"]
-        for name in rigid_names:
-            self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
-            self.columns += [f"{name}_displacement_{a}" for a in "xyz"[:dim]]
-        for name in self.load_names:
-            self.columns += [f"{name}_force_{a}" for a in "xyz"[:dim]]
-            self.columns += [f"{name}_displacement_{a}" for a in "xyz"[:dim]]
-        for name in self.contact_names:        # tools in unilateral contact (pimpm.terms.contact)
-            self.columns += [f"{name}_{c}" for c in CONTACT_COLUMNS]
-        if self.contact_names:
-            self.columns.append("frictional_dissipation")
-        self.columns += ["particle_imbalance", "wall_time"]
+        self.columns = history_columns(rigid_names, dim, self.load_names, self.contact_names)
         self.file = None
         if comm.rank == 0:
             if continue_after is None:
