@@ -40,6 +40,10 @@ kept; a second signal stops at once).
 """
 
 
+#: pimpm's own flags as a single dash would give them (then PETSc's options)
+OWN_FLAGS = ("-check", "-overwrite", "-restart", "-output", "-set")
+
+
 def split_arguments(argv):
     """Separate pimpm's own arguments from PETSc options: a single-dash token
     starts a PETSc option and the plain tokens after it are its values."""
@@ -112,6 +116,12 @@ def main(argv=None):
 
     if unknown:
         return fail(f"unknown argument(s) {' '.join(unknown)}: see python -m pimpm --help")
+    for token in petsc_args:
+        if token in OWN_FLAGS:            # -check would go to PETSc, and the run would start
+            return fail(f"{token}: expected --{token[1:]} (pimpm's own options take two dashes; "
+                        "one dash passes an option to PETSc)")
+    if args.output is not None and not args.output.strip():
+        return fail(f"--output {args.output!r}: expected a directory name")
     if not args.input:
         if "-help" in petsc_args:
             return 0

@@ -419,7 +419,7 @@ def _read_particle_file(path, dim):
                                     f"(n, {dim}) and (n,)")
     else:
         try:
-            with open(path, newline="") as f:
+            with open(path, newline="", encoding="utf-8-sig") as f:   # (a byte-order mark is not a column)
                 rows = [r for r in csv.reader(f) if r and not r[0].lstrip().startswith("#")]
         except (OSError, UnicodeDecodeError) as err:
             raise GeometryFileError(f"cannot be read ({err})") from None

@@ -409,6 +409,19 @@ BAD_INPUTS = {
     "negative Krylov tolerance": (
         None, yaml_case(lambda cfg: None, "-pimpm_preset", "cg-gamg", "-ksp_rtol", "-5"),
         ["-ksp_rtol", "-5", "number >= 0"]),
+    # issue 32: escapes
+    "pimpm's flag with one dash": (None, yaml_case(lambda cfg: None, "-check"), ["-check: expected --check"]),
+    "an empty output directory": (None, yaml_case(lambda cfg: None, "--output", ""),
+                                  ["--output ''", "expected a directory name"]),
+    "a body name with a newline": (
+        None, yaml_case(lambda cfg: cfg["bodies"][0].update(name="bar\nx")),
+        ["bodies[0].name", "without control characters"]),
+    "an integer beyond the float range": (
+        None, yaml_case(lambda cfg: cfg["materials"]["elastic"].update(youngs_modulus=10 ** 400)),
+        ["materials.elastic.youngs_modulus", "expected"]),
+    "an axisymmetric grid at negative radius": (
+        None, yaml_case(lambda cfg: cfg.update(kinematics="axisymmetric") or cfg["grid"].update(lower=[-0.7, 0.0])),
+        ["grid.lower = [-0.7, 0.0]", "x >= 0 with kinematics: axisymmetric"]),
     # issue 32: runs that would never end
     "a first step of 1e-200 that never grows": (
         None, yaml_case(lambda cfg: cfg["time"].update(dt_initial=1e-200, ramp_factor=1.0)),

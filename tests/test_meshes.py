@@ -296,10 +296,12 @@ def test_a_particle_file_gives_the_boxs_answer(tmp_path):
     x, v = box.particles["x0"], box.particles["volume0"]
     text = "# a particle cloud\nvolume,y,x\n" + "".join(f"{c!r},{b!r},{a!r}\n" for (a, b), c in zip(x, v))
     (tmp_path / "cloud.csv").write_text(text)
+    # a spreadsheet's CSV starts with a byte-order mark (issue 32: "missing x")
+    (tmp_path / "excel.csv").write_text("\ufeff" + text.split("\n", 1)[1], encoding="utf-8")
     import h5py
     with h5py.File(tmp_path / "cloud.h5", "w") as f:
         f["position"], f["volume"] = x, v
-    for name in ("cloud.csv", "cloud.h5"):
+    for name in ("cloud.csv", "excel.csv", "cloud.h5"):
         raw = squeeze({"type": "particles", "file": str(tmp_path / name)})
         raw["loads"] = raw["loads"][1:]      # no traction on a cloud: the weight only
         cloud = run_in_process(raw)

@@ -69,6 +69,10 @@ def validate(raw, source_name=None, base_dir=None):
         kin = KINEMATICS[dim][0]
     else:
         kin = _enum(kin, "kinematics", KINEMATICS[dim], f" (for dim = {dim})")
+    if kin == "axisymmetric" and grid["lower"][0] < 0.0:
+        # x is the radius: a body at negative r has a negative volume (issue 32: it ran,
+        # with zero Newton iterations and a negative strain energy)
+        _fail("grid.lower", grid["lower"], "x >= 0 with kinematics: axisymmetric (x is the radius r)")
 
     materials = _validate_materials(
         top.required("materials", "a non-empty mapping of material name -> material spec"),

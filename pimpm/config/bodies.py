@@ -9,7 +9,7 @@ import numpy as np
 
 from ..materials import MODELS, REQUIRED, elastic_moduli
 from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _fail,
-    _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _ordered_bounds, _positive, _string)
+    _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _name, _ordered_bounds, _positive, _string)
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
     CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
@@ -195,7 +195,7 @@ def _check_inside_grid(geom, path, grid, dim):
 
 def _validate_body(value, path, dim, materials, grid, functions=None, base_dir=None):
     sec = _Section(value, path, BODY_KEYS)
-    name = _string(sec.required("name", "a non-empty string"), sec.sub("name"))
+    name = _name(sec.required("name", "a non-empty string"), sec.sub("name"))
 
     rigid = sec.optional("rigid")
     rigid = False if rigid is _MISSING else _bool(rigid, sec.sub("rigid"))

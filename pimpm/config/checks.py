@@ -86,7 +86,10 @@ def _is_int(value):
 def _float(value, path, expected="a number"):
     """A finite float; accepts ints and strings that parse as floats ("6.0e6")."""
     if _is_number(value):
-        x = float(value)
+        try:
+            x = float(value)
+        except OverflowError:            # an integer beyond the double range
+            _fail(path, value, expected)
     elif isinstance(value, str):
         try:
             x = float(value.strip())
@@ -122,6 +125,15 @@ def _bool(value, path):
 
 def _string(value, path, expected="a non-empty string"):
     if not isinstance(value, str) or not value.strip():
+        _fail(path, value, expected)
+    return value
+
+
+def _name(value, path):
+    """A name that heads history.csv's columns and labels output: a non-empty
+    string without control characters (a newline would break the header)."""
+    expected = "a non-empty name without control characters"
+    if not isinstance(value, str) or not value.strip() or any(ord(c) < 32 or ord(c) == 127 for c in value):
         _fail(path, value, expected)
     return value
 

@@ -1,8 +1,7 @@
 """Validation of the ``loads`` section: forces applied to the particles of
 deformable bodies, each scaled by a function of time (the runtime objects
 are :mod:`pimpm.loads`)."""
-from .checks import (_MISSING, _Section, _choices, _enum, _fail, _float_vector, _fmt, _join, _ordered_bounds,
-                     _string)
+from .checks import _MISSING, _Section, _choices, _enum, _fail, _float_vector, _fmt, _join, _name, _ordered_bounds
 from .functions import _function_ref
 from .schema import AXES
 
@@ -31,7 +30,7 @@ def _validate_loads(value, path, dim, bodies, functions, grid):
         kind = _enum(spec["type"], _join(lpath, "type"), LOAD_TYPES)
         sec = _Section(spec, lpath, LOAD_KEYS[kind])
         name = sec.optional("name")
-        name = f"{kind}{i}" if name is _MISSING else _string(name, sec.sub("name"))
+        name = f"{kind}{i}" if name is _MISSING else _name(name, sec.sub("name"))
         if name in taken:
             _fail(sec.sub("name"), name, f"a name not already used by {taken[name]}")
         taken[name] = f"{path}[{i}]"
