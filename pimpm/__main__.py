@@ -155,14 +155,20 @@ def _run(args, comm, fail):
         config = with_command_line(config)
     except ValueError as err:
         return fail(str(err))
-    from .analysis import run
+    from .analysis import prepare_restart, run
     from .errors import SetupError, UsageError
     from .simulation import Simulation
+    from .step_control import TimeStepControl
     from .summary import summary
     try:
         if args.check:
-            sim = Simulation(config, comm)
+            # with --restart, what the restart would continue is checked too (nothing written)
+            sim = (prepare_restart(config, comm, TimeStepControl(config["time"])) if args.restart
+                   else Simulation(config, comm))
             lines = summary(sim, config)           # collective: every rank builds it
+            if args.restart:
+                lines.append(f"  restart   from step {sim.step_index} (t = {sim.time:.6g}) of "
+                             f"{config['output']['directory']}/checkpoint.h5")
             if comm.rank == 0:
                 print("\n".join(lines))
                 print("pimpm: input is valid")

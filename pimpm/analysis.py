@@ -298,23 +298,7 @@ def run(config, comm, overwrite=False, echo=print, restart=False, input_path=Non
     directory = config["output"]["directory"]
     control = TimeStepControl(config["time"])
     if restart:
-        checkpoint = open_checkpoint(config, comm)
-        try:
-            sim = Simulation(config, comm, checkpoint)
-        except KeyError as err:         # a particle field the run needs is not in it
-            raise UsageError(f"output.directory = {directory!r}: checkpoint.h5 has no {err}: expected "
-                             "the checkpoint of a run of this input") from None
-        control.restore(checkpoint.control)
-        if control.done(sim.time):
-            raise UsageError(f"time.end_time = {config['time']['end_time']!r}: expected a time after the "
-                             f"checkpoint's t = {sim.time:.6g} (step {sim.step_index}) to continue to")
-        # a restart is a transaction: what it continues is checked before anything is written
-        columns = history_columns([b.name for b in sim.rigid_bodies], sim.dim, [load.name for load in sim.loads],
-                                  [t.name for t in sim.contact_tools])
-        try:
-            check_restart_files(comm, directory, sim.grid, columns)
-        except ValueError as err:
-            raise UsageError(f"output.directory = {directory!r}: cannot continue its results: {err}") from None
+        sim = prepare_restart(config, comm, control)
     else:
         sim = Simulation(config, comm)          # bad solver options fail here, before any output
         prepare_output_directory(comm, directory, overwrite)
@@ -331,6 +315,32 @@ def run(config, comm, overwrite=False, echo=print, restart=False, input_path=Non
     if sim.solver is not None:     # (after an exception, the exit handler frees it on every rank)
         sim.solver.destroy()
     return status
+
+
+def prepare_restart(config, comm, control):
+    """The Simulation continued from the checkpoint of ``config``'s output
+    directory, and ``control`` restored from it, after checking (before
+    anything is written: a restart is a transaction) the checkpoint, that
+    there is time left to run, and the results and history it continues.
+    Collective; UsageError or SetupError on every rank otherwise."""
+    directory = config["output"]["directory"]
+    checkpoint = open_checkpoint(config, comm)
+    try:
+        sim = Simulation(config, comm, checkpoint)
+    except KeyError as err:         # a particle field the run needs is not in it
+        raise UsageError(f"output.directory = {directory!r}: checkpoint.h5 has no {err}: expected "
+                         "the checkpoint of a run of this input") from None
+    control.restore(checkpoint.control)
+    if control.done(sim.time):
+        raise UsageError(f"time.end_time = {config['time']['end_time']!r}: expected a time after the "
+                         f"checkpoint's t = {sim.time:.6g} (step {sim.step_index}) to continue to")
+    columns = history_columns([b.name for b in sim.rigid_bodies], sim.dim, [load.name for load in sim.loads],
+                              [t.name for t in sim.contact_tools])
+    try:
+        check_restart_files(comm, directory, sim.grid, columns)
+    except ValueError as err:
+        raise UsageError(f"output.directory = {directory!r}: cannot continue its results: {err}") from None
+    return sim
 
 
 def open_checkpoint(config, comm):

@@ -411,6 +411,8 @@ BAD_INPUTS = {
         ["-ksp_rtol", "-5", "number >= 0"]),
     # issue 32: escapes
     "pimpm's flag with one dash": (None, yaml_case(lambda cfg: None, "-check"), ["-check: expected --check"]),
+    "--check --restart without a checkpoint": (None, yaml_case(lambda cfg: None, "--check", "--restart"),
+                                                ["no usable checkpoint.h5"]),
     "an empty output directory": (None, yaml_case(lambda cfg: None, "--output", ""),
                                   ["--output ''", "expected a directory name"]),
     "a body name with a newline": (
