@@ -155,7 +155,7 @@ def _run(args, comm, fail):
         config = with_command_line(config)
     except ValueError as err:
         return fail(str(err))
-    from .analysis import prepare_restart, run
+    from .analysis import prepare_restart, restart_line, run
     from .errors import SetupError, UsageError
     from .simulation import Simulation
     from .step_control import TimeStepControl
@@ -167,8 +167,7 @@ def _run(args, comm, fail):
                    else Simulation(config, comm))
             lines = summary(sim, config)           # collective: every rank builds it
             if args.restart:
-                lines.append(f"  restart   from step {sim.step_index} (t = {sim.time:.6g}) of "
-                             f"{config['output']['directory']}/checkpoint.h5")
+                lines.append(restart_line(sim, config["output"]["directory"]))
             if comm.rank == 0:
                 print("\n".join(lines))
                 print("pimpm: input is valid")

@@ -114,16 +114,25 @@ class HistoryObserver(Observer):
     dropping rows after the checkpoint's step)."""
 
     def __init__(self, sim, path, restart=False):
-        self.history = History(sim.comm, path, [b.name for b in sim.rigid_bodies], sim.dim,
-                               continue_after=sim.step_index if restart else None,
-                               load_names=[load.name for load in sim.loads],
-                               contact_names=[t.name for t in sim.contact_tools])
+        self.history = History(sim.comm, path, dim=sim.dim, continue_after=sim.step_index if restart else None,
+                               **history_names(sim))
 
     def step(self, analysis, info):
         self.history.write(info)
 
     def close(self):
         self.history.close()
+
+
+def history_names(sim):
+    """The rigid bodies, loads and contact tools that history.csv has columns for."""
+    return {"rigid_names": [b.name for b in sim.rigid_bodies], "load_names": [load.name for load in sim.loads],
+            "contact_names": [t.name for t in sim.contact_tools]}
+
+
+def restart_line(sim, directory):
+    """The summary's line for a run that continues a checkpoint."""
+    return f"  restart   from step {sim.step_index} (t = {sim.time:.6g}) of {directory}/checkpoint.h5"
 
 
 class OutputObserver(Observer):
@@ -233,6 +242,19 @@ class ProgressObserver(Observer):
                       f"{self.directory}/ (particles.xdmf, grid.xdmf, history.csv)")
 
 
+class Trace(Observer):
+    """For scripts and tests: ``measure(sim)`` after every step, as
+    (time, value) pairs in ``values``, starting with (0, ``initial``).
+    ``measure`` is called on every rank (it may be collective)."""
+
+    def __init__(self, measure, initial=0.0):
+        self.measure = measure
+        self.values = [(0.0, initial)]
+
+    def step(self, analysis, info):
+        self.values.append((analysis.sim.time, self.measure(analysis.sim)))
+
+
 class StepStatistics(Observer):
     """Totals for scripts: steps, cuts, Newton iterations, the last step's
     forces and the largest relative departure of the total energy (kinetic
@@ -306,7 +328,7 @@ def run(config, comm, overwrite=False, echo=print, restart=False, input_path=Non
         if comm.rank == 0:
             echo(line)
     if restart and comm.rank == 0:
-        echo(f"  restart   from step {sim.step_index} (t = {sim.time:.6g}) of {directory}/checkpoint.h5")
+        echo(restart_line(sim, directory))
     observers = [ProgressObserver(sim, directory, echo, input_path),
                  CheckpointObserver(sim, directory, config["output"]["checkpoint_every"]),
                  OutputObserver(sim, directory, config["output"]["every"], restart),
@@ -334,10 +356,8 @@ def prepare_restart(config, comm, control):
     if control.done(sim.time):
         raise UsageError(f"time.end_time = {config['time']['end_time']!r}: expected a time after the "
                          f"checkpoint's t = {sim.time:.6g} (step {sim.step_index}) to continue to")
-    columns = history_columns([b.name for b in sim.rigid_bodies], sim.dim, [load.name for load in sim.loads],
-                              [t.name for t in sim.contact_tools])
     try:
-        check_restart_files(comm, directory, sim.grid, columns)
+        check_restart_files(comm, directory, sim.grid, history_columns(dim=sim.dim, **history_names(sim)))
     except ValueError as err:
         raise UsageError(f"output.directory = {directory!r}: cannot continue its results: {err}") from None
     return sim

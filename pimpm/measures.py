@@ -7,10 +7,21 @@ scripts and tests that report them.
   with the largest initial x.
 * The upset cylinder's **radius at mid-height** (Sulsky & Kaul 3.2.7): the
   largest radius of its particles within two cells of the symmetry plane.
+* A body's **mean displacement** along a direction (mass-weighted): the
+  block's slide down the inclined ramp.
 * The self-weight column's **stress error**: sigma_yy of every particle
   against the exact -rho g (L - Y) at its initial height Y, over rho g L.
 """
 import numpy as np
+
+
+def mean_displacement(sim, direction):
+    """The mass-weighted mean displacement of the material particles along
+    ``direction`` (a unit vector), e.g. a block's slide down a ramp
+    (collective)."""
+    p = sim.particles
+    moved = float(np.sum(p["mass"] * ((p["x"] - p["x0"]) @ np.asarray(direction, dtype=float))))
+    return sim.comm.allreduce(moved) / sim.mass0
 
 
 def edge_particle_id(ids, x0, body, body_index=0, comm=None):

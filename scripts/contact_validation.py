@@ -19,8 +19,9 @@ import petsc4py
 petsc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
-from pimpm.analysis import Observer, run_to_end  # noqa: E402
+from pimpm.analysis import Observer, Trace, run_to_end  # noqa: E402
 from pimpm.config import load_config  # noqa: E402
+from pimpm.measures import mean_displacement  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 INPUTS = os.path.join(os.path.dirname(HERE), "inputs")
@@ -105,21 +106,14 @@ def incline():
     down = np.array([np.cos(angle), -np.sin(angle)])
     for mu in (0.0, 0.3, 0.7):
         for cells, dt in (([32, 28], 1e-3), ([32, 28], 5e-4)):
-            positions = []
-
-            class Along(Observer):
-                def step(self, analysis, info):
-                    p = analysis.sim.particles
-                    moved = analysis.sim.comm.allreduce(float(np.sum(p["mass"] * ((p["x"] - p["x0"]) @ down))))
-                    positions.append((analysis.sim.time, moved / analysis.sim.mass0))
-
+            along = Trace(lambda sim: mean_displacement(sim, down))
             rows = Rows()
             start = time.perf_counter()
             sim, stats, status = run_to_end(load_config(os.path.join(INPUTS, "block_on_incline.yaml"),
                                                         [f"bodies[1].friction_coefficient={mu}",
                                                          f"grid.cells={cells}", f"time.dt={dt}"]),
-                                            observers=[rows, Along()])
-            t, s = np.array([[0.0, 0.0]] + positions).T
+                                            observers=[rows, along])
+            t, s = np.array(along.values).T
             a = 2.0 * np.polyfit(t, s, 2)[0]
             exact = max(g * (np.sin(angle) - mu * np.cos(angle)), 0.0)
             newton = [r["newton"] for r in rows.rows]

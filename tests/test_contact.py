@@ -16,9 +16,10 @@ petsc4py.init([])
 from mpi4py import MPI  # noqa: E402
 
 from helpers import HERE, run_mpi, run_pimpm  # noqa: E402
-from pimpm.analysis import Observer, run_to_end  # noqa: E402
+from pimpm.analysis import Observer, Trace, run_to_end  # noqa: E402
 from pimpm.config import ConfigError, load_config, validate  # noqa: E402
 from pimpm.kernels import contact as kernels  # noqa: E402
+from pimpm.measures import mean_displacement  # noqa: E402
 
 REPO = os.path.dirname(HERE)
 
@@ -450,18 +451,11 @@ def test_a_block_turned_on_an_inclined_ramp_slides_as_on_the_tilted_floor(mu):
     floor under tilted gravity does."""
     g, angle = 9.80665, np.radians(30.0)
     down = np.array([np.cos(angle), -np.sin(angle)])
-    along = []
-
-    class Along(Observer):
-        def step(self, analysis, info):
-            p = analysis.sim.particles
-            moved = analysis.sim.comm.allreduce(float(np.sum(p["mass"] * ((p["x"] - p["x0"]) @ down))))
-            along.append((analysis.sim.time, moved / analysis.sim.mass0))
-
+    along = Trace(lambda sim: mean_displacement(sim, down))
     sim, stats, status = run_to_end(load_config(f"{REPO}/inputs/block_on_incline.yaml",
-                                                [f"bodies[1].friction_coefficient={mu}"]), observers=[Along()])
+                                                [f"bodies[1].friction_coefficient={mu}"]), observers=[along])
     assert stats.failure is None
-    t, s = np.array([[0.0, 0.0]] + along).T
+    t, s = np.array(along.values).T
     if mu < np.tan(angle):
         assert 2.0 * np.polyfit(t, s, 2)[0] == pytest.approx(g * (np.sin(angle) - mu * np.cos(angle)), rel=0.01)
     else:

@@ -56,6 +56,35 @@ def write_slab(dset, start, data, dxpl):
     dset.id.write(mspace, fspace, data, dxpl=dxpl)
 
 
+def same_grid(attrs, dim, nodes, lower, spacing):
+    """True if a results file's attributes describe this grid."""
+    return (int(attrs["dim"]) == dim and np.array_equal(attrs["nodes"], nodes)
+            and np.allclose(attrs["lower"], lower) and np.allclose(attrs["spacing"], spacing))
+
+
+def step_records(steps):
+    """{step: its description for the XDMF files} of a results file's
+    ``steps`` group, read from its attributes and datasets' metadata."""
+    records = {}
+    for sname in sorted(steps.keys()):
+        g = steps[sname]
+        rec = dict(step=int(g.attrs["step"]), time=float(g.attrs["time"]), name=sname,
+                   particles=None, grid=None)
+        if "particles" in g:
+            pg = g["particles"]
+            rec["particles"] = dict(
+                count=int(pg.attrs["count"]),
+                fields=[(n, _attr_str(pg[n].attrs["AttributeType"]), tuple(pg[n].shape),
+                         pg[n].dtype.str) for n in _ordered(pg.keys())])
+        if "grid" in g:
+            gg = g["grid"]
+            rec["grid"] = dict(
+                fields=[(n, _attr_str(gg[n].attrs["AttributeType"]), tuple(gg[n].shape),
+                         gg[n].dtype.str) for n in sorted(gg.keys())])
+        records[rec["step"]] = rec
+    return records
+
+
 class ResultWriter:
     """One HDF5 file per run (results.h5) written in parallel + XDMF files ParaView opens.
 
@@ -128,11 +157,7 @@ class ResultWriter:
         f = self._file
         if append and "dim" in f.attrs:
             # every rank reads the same attributes, so all ranks agree here
-            same = (int(f.attrs["dim"]) == self.dim
-                    and np.array_equal(f.attrs["nodes"], self.nodes)
-                    and np.allclose(f.attrs["lower"], self.lower)
-                    and np.allclose(f.attrs["spacing"], self.spacing))
-            if not same:
+            if not same_grid(f.attrs, self.dim, self.nodes, self.lower, self.spacing):
                 f.close()
                 self._file = None
                 raise ValueError("ResultWriter(append=True): %s describes a different grid"
@@ -266,23 +291,7 @@ class ResultWriter:
     # ------------------------------------------------------------------ restart
     def _load_records(self):
         """Rebuild the XDMF step list from an existing file (append mode)."""
-        steps = self._file["steps"]
-        for sname in sorted(steps.keys()):
-            g = steps[sname]
-            rec = dict(step=int(g.attrs["step"]), time=float(g.attrs["time"]), name=sname,
-                       particles=None, grid=None)
-            if "particles" in g:
-                pg = g["particles"]
-                rec["particles"] = dict(
-                    count=int(pg.attrs["count"]),
-                    fields=[(n, _attr_str(pg[n].attrs["AttributeType"]), tuple(pg[n].shape),
-                             pg[n].dtype.str) for n in _ordered(pg.keys())])
-            if "grid" in g:
-                gg = g["grid"]
-                rec["grid"] = dict(
-                    fields=[(n, _attr_str(gg[n].attrs["AttributeType"]), tuple(gg[n].shape),
-                             gg[n].dtype.str) for n in sorted(gg.keys())])
-            self._records[rec["step"]] = rec
+        self._records.update(step_records(self._file["steps"]))
 
     def _write_xdmf_checked(self):
         """Rank 0 rewrites the XDMF files; a failure is raised on every rank."""

@@ -7,9 +7,8 @@ import csv
 import math
 import os
 
-import numpy as np
-
 from .directory import ALL_NAMES, HISTORY_CSV
+from .hdf5 import same_grid, step_records
 from .layout import H5_NAME
 
 
@@ -53,26 +52,15 @@ def _check_results(path, grid):
         raise ValueError(f"{path!r} is not a readable HDF5 file ({err})") from None
     with f:
         try:
-            if "dim" in f.attrs:
-                same = (int(f.attrs["dim"]) == grid.dim and np.array_equal(f.attrs["nodes"], grid.nodes)
-                        and np.allclose(f.attrs["lower"], grid.lower)
-                        and np.allclose(f.attrs["spacing"], grid.spacing))
-                if not same:
-                    raise ValueError(f"{path!r} describes another grid than the input's")
-            if "steps" in f:
-                for name, group in f["steps"].items():
-                    step, time = int(group.attrs["step"]), float(group.attrs["time"])
-                    if step < 0 or not math.isfinite(time):
-                        raise ValueError(f"{path!r}: step {name} has step {step}, time {time}")
-                    for part in ("particles", "grid"):
-                        if part in group:
-                            for field in group[part].values():
-                                field.attrs["AttributeType"]
-                                field.shape
-                    if "particles" in group:
-                        int(group["particles"].attrs["count"])
+            # what ResultWriter(append=True) reads of it
+            if "dim" in f.attrs and not same_grid(f.attrs, grid.dim, grid.nodes, grid.lower, grid.spacing):
+                raise ValueError(f"{path!r} describes another grid than the input's")
+            records = step_records(f["steps"]) if "steps" in f else {}
         except (KeyError, TypeError, AttributeError, OSError) as err:
             raise ValueError(f"{path!r} is not pimpm's results file or is damaged ({err})") from None
+    for record in records.values():
+        if record["step"] < 0 or not math.isfinite(record["time"]):
+            raise ValueError(f"{path!r}: step {record['name']} has step {record['step']}, time {record['time']}")
 
 
 def _check_history(path, columns):
