@@ -48,6 +48,12 @@ def main():
             sim = Simulation(validate(tiny(dim, shape_functions, material)), MPI.COMM_SELF)
             sim.advance(1.0)
             sim.solver.destroy()
+        for shape_functions in ("linear", "gimp"):          # F-bar's cell coupling (pimpm.kernels.fbar)
+            config = tiny(dim, shape_functions, MATERIALS[0])
+            config["materials"]["m"]["f_bar"] = True
+            sim = Simulation(validate(config), MPI.COMM_SELF)
+            sim.advance(1.0)
+            sim.solver.destroy()
         config = tiny(dim, "gimp", MATERIALS[0])             # contact with a rigid tool
         config["bodies"][1].update(contact="frictionless")   # the same kernels as friction
         sim = Simulation(validate(config), MPI.COMM_SELF)

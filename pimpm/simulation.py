@@ -12,7 +12,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import energy, faults, resources
+from . import energy, faults, fbar, resources
 from .errors import SetupError, StepFailed
 from .grid import Grid
 from .implicit import StepProblem, TangentPattern, residual_scale
@@ -178,7 +178,7 @@ class Simulation:
                                    stages=self.stages,
                                    nonsymmetric_materials=[m.name for m in self.materials
                                                            if not m.symmetric_tangent],
-                                   terms=self.terms)
+                                   terms=self.terms, f_bar=self.f_bar)
         try:
             self.solver = NewtonSolver(self.grid, self.problem, config["solver"], self.stages)
         except (PETSc.Error, ValueError) as err:
@@ -255,13 +255,27 @@ class Simulation:
         transfer_kernels.gimp_half_sizes(p["half_size"], p["F"], 0.5 * self.grid.spacing, out)
         return out
 
-    def tangent_pattern(self, node_index, active):
-        """The couplings of this step's tangent (pimpm.kernels.pattern)."""
+    @property
+    def f_bar(self):
+        """Does some material average its volume change per cell (F-bar)?"""
+        return any(m.f_bar for m in self.materials)
+
+    def pattern_width(self):
+        """The tangent's stencil half-width: a particle's footprint, and one
+        node more with F-bar, whose cell coupling reaches the union of the
+        footprints of a cell's particles (pimpm.kernels.fbar)."""
+        return self.shape.nodes_per_axis - 1 + (1 if self.f_bar else 0)
+
+    def tangent_pattern(self, node_index, active, cells=None):
+        """The couplings of this step's tangent (pimpm.kernels.pattern);
+        ``cells``: F-bar's cells (pimpm.fbar.AveragedCells), whose particles
+        couple every node they reach."""
         grid = self.grid
-        width = self.shape.nodes_per_axis - 1
+        width = self.pattern_width()
+        cells = cells if cells is not None else fbar.NONE
         indptr, indices, slots = kernel_pattern.block_pattern(
             node_index, active, grid.ghost_ijk, grid.dim, width, grid.owned_local_nodes,
-            grid.n_local_nodes, int(grid.ghost_shape[0]), int(grid.ghost_shape[1]))
+            grid.n_local_nodes, int(grid.ghost_shape[0]), int(grid.ghost_shape[1]), cells.order, cells.start)
         scalar_indptr, scalar_indices = kernel_pattern.scalar_csr(indptr, indices, grid.dim)
         return TangentPattern(width, indptr, indices, slots,
                               scalar_indptr.astype(PETSc.IntType), scalar_indices.astype(PETSc.IntType))

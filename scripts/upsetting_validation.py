@@ -28,23 +28,25 @@ sys.path.insert(0, ROOT)
 from pimpm.measures import midplane_radius               # noqa: E402
 
 
-def case(h, shape=None):
+def case(h, shape=None, f_bar=None):
     with open(os.path.join(ROOT, "inputs", "upsetting.yaml")) as f:
         cfg = yaml.safe_load(f)
     cfg = copy.deepcopy(cfg)
     cfg["grid"]["cells"] = [int(round(24 / h)), int(round(17 / h))]
     cfg["bodies"][1]["geometry"] = {"type": "box", "lower": [0.0, 15.0], "upper": [23.0, 15.0 + h]}
     cfg["time"]["dt"] = 5.0e-4 * h          # half a cell per step at 1 m/s
-    if shape is not None:                  # else the input's own (linear)
+    if shape is not None:                  # else the input's own
         cfg["grid"]["shape_functions"] = shape
+    if f_bar is not None:                  # else the input's own
+        cfg["materials"]["steel"]["f_bar"] = f_bar
     cfg["output"] = {"directory": "out", "every": 1}
     return cfg
 
 
-def run(h, ranks, workdir, shape=None):
+def run(h, ranks, workdir, shape=None, f_bar=None):
     path = os.path.join(workdir, f"upsetting_{h}.yaml")
     with open(path, "w") as f:
-        yaml.safe_dump(case(h, shape), f)
+        yaml.safe_dump(case(h, shape, f_bar), f)
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     sub = os.path.join(workdir, f"h{h}")
     os.makedirs(sub, exist_ok=True)
@@ -75,12 +77,15 @@ def main():
     ap.add_argument("--sizes", type=float, nargs="+", default=[2.0, 1.0, 0.5])
     ap.add_argument("--shape", default=None, choices=["linear", "gimp", "bspline"],
                     help="shape functions (default: the input's, linear)")
+    ap.add_argument("--f-bar", choices=["on", "off"], default=None,
+                    help="F-bar on the steel (default: the input's)")
     ap.add_argument("--no-docs", action="store_true")
     args = ap.parse_args()
     results = []
     with tempfile.TemporaryDirectory() as workdir:
         for h in args.sizes:
-            results.append(run(h, args.ranks, workdir, args.shape))
+            results.append(run(h, args.ranks, workdir, args.shape,
+                               None if args.f_bar is None else args.f_bar == "on"))
     failed = [r for r in results if r.get("failed")]
     results = [r for r in results if not r.get("failed")]
     for r in failed:

@@ -308,6 +308,13 @@ BAD_INPUTS = {
             "model": "neo_hookean", "shear_modulus": -5.0, "bulk_modulus": 800.0,
             "density": 10.0})),
         ["materials.elastic.shear_modulus", "-5.0", "expected a positive number"]),
+    "f_bar not a boolean": (
+        None, yaml_case(set_key(["materials", "elastic", "f_bar"], "sometimes")),
+        ["materials.elastic.f_bar", "'sometimes'", "true or false"]),
+    "f_bar in plane stress": (
+        None, yaml_case(lambda cfg: (cfg["materials"]["elastic"].update(f_bar=True),
+                                     cfg.update(kinematics="plane_stress"))),
+        ["materials.elastic.f_bar", "plane_stress", "does not lock"]),
     "unknown top-level key": (
         None, yaml_case(set_key(["solvr"], {"petsc": {}})),
         ["solvr", "unknown key", "solver"]),

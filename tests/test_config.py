@@ -86,7 +86,7 @@ def test_base_config_normalizes_with_defaults():
     assert validate(explicit)["parallel"]["rebalance_threshold"] == 1.02   # a cheap repartition
     assert cfg["solver"]["free_dofs_only"] is True
     assert cfg["kinematics"] == "plane_strain"
-    assert cfg["materials"] == {"rubber": {"model": "neo_hookean", "density": 10.0,
+    assert cfg["materials"] == {"rubber": {"model": "neo_hookean", "density": 10.0, "f_bar": False,
                                            "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7}}
     billet, platen = cfg["bodies"]
     assert billet == {"name": "billet", "material": "rubber", "rigid": False,

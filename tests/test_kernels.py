@@ -162,12 +162,9 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
     sigma, c, history = update_stress(st.material_groups, st.kinematics, F, st.history, True, F_inc)
     pairs = RK.internal_force_pairs(st.kinematics, sigma, F_inc, st.G, st.S, st.volume_n, st.radius)
     force = RK.scatter_pairs(st.node_index, pairs, grid.n_local_nodes)
-    blocks = RK.element_tangents(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius)
+    dense = RK.dense_tangent(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius, st.node_index,
+                             grid.n_local_nodes)
     n, nn = st.S.shape
-    dense = np.zeros((grid.n_local_nodes * dim,) * 2)
-    dofs = (st.node_index[:, :, None] * dim + np.arange(dim)).reshape(n, nn * dim)
-    for p in range(n):                      # test code: a loop over particles is fine here
-        dense[np.ix_(dofs[p], dofs[p])] += blocks[p]
     # compiled
     sim.problem.begin(st)
     ev = ParticleEvaluation(st, grid.n_local_nodes, dim)
@@ -207,15 +204,10 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
         np.add.at(compiled, (rows, pattern.scalar_indices), values)
         assert relative(compiled, dense) < 1e-10
     # the pattern holds every coupling and nothing but them (and the owned diagonals)
-    coupled = np.zeros((grid.n_local_nodes,) * 2, dtype=bool)
-    for p in range(n):
-        on = st.node_index[p][st.active[p]]
-        coupled[np.ix_(on, on)] = True
-    coupled[grid.owned_local_nodes, grid.owned_local_nodes] = True
-    in_pattern = np.zeros_like(coupled)
+    coupled = RK.expected_couplings([[p] for p in range(n)], st.node_index, st.active, grid.owned_local_nodes,
+                                    grid.n_local_nodes)
+    assert np.array_equal(RK.pattern_couplings(pattern, grid.n_local_nodes), coupled)
     block_rows = np.repeat(np.arange(len(pattern.indptr) - 1), np.diff(pattern.indptr))
-    in_pattern[block_rows, pattern.indices] = True
-    assert np.array_equal(in_pattern, coupled)
     assert np.all(np.diff(pattern.indices)[np.diff(block_rows) == 0] > 0)     # sorted rows
 
 
@@ -261,8 +253,8 @@ def test_a_table_of_several_models_dispatches_each_particle_to_its_own():
         st.kinematics.kernel_code, (0, 1), tuple(range(st.S.shape[1])), u, st.node_index[metal], st.active[metal], st.S[metal],
         st.G[metal], np.zeros(0), st.F_n[metal], st.volume_n[metal], table.only_model, table.models,
         table.params, table.material_of, st.history_packed[metal][:, :table.width], True, False,
-        out[0], out[1], out[2], h_out, np.empty((sim.grid.n_local_nodes, 2)),
-        np.empty((len(metal), 2, 2, 2, 2)), np.empty((0, 9)))
+        np.zeros(0, dtype=np.int64), 0, out[0], out[1], out[2], h_out, np.empty((sim.grid.n_local_nodes, 2)),
+        np.empty((len(metal), 2, 2, 2, 2)), np.empty((0, 9)), np.empty((0, 3, 3)), np.empty(0))
     assert np.array_equal(out[2], mixed.sigma[metal])
 
 

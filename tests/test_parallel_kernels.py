@@ -38,7 +38,14 @@ pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
     (1, "newmark", "2d", "linear", "elastic", "onecell"), (2, "newmark", "2d", "gimp", "elastic", "onecell"),
     (2, "quasi_static", "2d", "bspline", "elastic", "onecell"),
     (2, "quasi_static", "3d", "linear", "elastic", "onecell"),
-    (1, "newmark", "3d", "gimp", "elastic", "onecell"), (2, "newmark", "3d", "bspline", "elastic", "onecell")])
+    (1, "newmark", "3d", "gimp", "elastic", "onecell"), (2, "newmark", "3d", "bspline", "elastic", "onecell"),
+    # F-bar (pimpm.kernels.fbar): the cell coupling of the volume average, every kinematics
+    # that takes it, both hyperelastic models and both J2 models
+    (1, "quasi_static", "2d", "linear", "elastic", "fbar"), (2, "quasi_static", "2d", "gimp", "j2finite", "fbar"),
+    (3, "quasi_static", "2d", "gimp", "j2", "fbar"), (2, "newmark", "2d", "bspline", "j2finite", "fbar"), (2, "hht", "2d", "gimp", "elastic", "axisymmetric fbar"),
+    (1, "quasi_static", "2d", "linear", "j2finite", "axisymmetric fbar"),
+    (2, "newmark", "3d", "gimp", "elastic", "fbar"), (3, "quasi_static", "3d", "linear", "j2finite", "fbar"),
+    (2, "backward_euler", "2d", "gimp", "elastic", "onecell fbar")])
 def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, shape, material,
                                                        kinematics):
     args = [f"{HERE}/mpi/jacobian_check.py", integrator, dim, shape, material]

@@ -91,7 +91,26 @@ def validate(raw, source_name=None, base_dir=None):
               "solver": solver, "parallel": parallel, "output": output}
     check_derived(config)
     _check_contact(config)
+    _check_f_bar(config)
     return config
+
+
+def _check_f_bar(config):
+    """F-bar (pimpm.kernels.fbar) averages the volume change of each cell:
+    plane stress has no volumetric constraint to lock (the thickness
+    adjusts), and the momentum formulation's tangent keeps the DMDA's
+    stencil, which the cell coupling outgrows."""
+    for name, material in config["materials"].items():
+        if not material.get("f_bar"):
+            continue
+        path = f"materials.{name}.f_bar"
+        if config["kinematics"] == "plane_stress":
+            raise ConfigError(f"{path} = true: expected false with kinematics: plane_stress (plane stress "
+                              "does not lock volumetrically: the thickness stretch takes up the volume "
+                              "change)", path=path)
+        if config["time"].get("formulation") == "momentum":
+            raise ConfigError(f"{path} = true: expected false with time.formulation: momentum (F-bar "
+                              "runs in the velocity formulation)", path=path)
 
 
 def _check_contact(config):

@@ -13,7 +13,7 @@ from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _f
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
     CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
-    MODEL_PARAMETER_KEYS, RIGID_ONLY_GEOMETRIES)
+    MODEL_PARAMETER_KEYS, RIGID_ONLY_GEOMETRIES, DEFAULT_F_BAR)
 
 
 def _validate_material(value, path):
@@ -22,6 +22,8 @@ def _validate_material(value, path):
                   MATERIAL_MODELS)
     density = _positive(sec.required("density", "a positive number"), sec.sub("density"))
     out = {"model": model, "density": density}
+    f_bar = sec.optional("f_bar")
+    out["f_bar"] = DEFAULT_F_BAR if f_bar is _MISSING else _bool(f_bar, sec.sub("f_bar"))
 
     given = [k for k in ELASTIC_KEYS if sec.has(k)]
     vals = {}

@@ -36,7 +36,10 @@ DEFAULT_WEAK_NODE_FRACTION = 0.05
 ELASTIC_KEYS = ("shear_modulus", "bulk_modulus", "youngs_modulus", "poisson_ratio")
 #: parameters of all models, in registry order (each model declares its own)
 MODEL_PARAMETER_KEYS = tuple(dict.fromkeys(k for m in MODELS.values() for k in m.parameters))
-MATERIAL_KEYS = ("model", "density") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
+MATERIAL_KEYS = ("model", "density", "f_bar") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
+#: F-bar (pimpm.kernels.fbar) where a material does not say: measured in docs/VALIDATION.md
+#: ("Volumetric locking and F-bar")
+DEFAULT_F_BAR = False
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "function", "constrain", "contact", "friction_coefficient",
              "contact_stiffness", "slip_tolerance", "tangential_stiffness")

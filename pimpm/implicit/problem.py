@@ -15,7 +15,8 @@ Prescribed dofs are eliminated symmetrically: their rows are
 import numpy as np
 from petsc4py import PETSc
 
-from .. import coo, faults, interrupt
+from .. import coo, faults, fbar, interrupt
+from ..kernels import fbar as fbar_kernels
 from ..kernels import particle_step
 from ..materials.model import youngs_modulus
 from ..stages import log_stage
@@ -65,17 +66,22 @@ class ParticleEvaluation:
         self.tangent = np.empty((n,) + (dim,) * 4)
         axisymmetric = state.kinematics.kernel_code == particle_step.AXISYMMETRIC
         self.hoop = np.empty((n if axisymmetric else 0, 2 * dim * dim + 1))
+        averaged = state.cells is not None and state.cells.count > 0
+        self.fbar_q = np.empty((n if averaged else 0, 3, 3))          # F-bar: v Q per particle
+        self.fbar_weight = np.empty(n if averaged else 0)             # F-bar: v / V_cell
         self.inverted = 0
         self.unconverged = 0          # plane stress: particles whose thickness solve failed
 
     def evaluate(self, state, u_local, dim):
         """Fill everything for ``u_local`` (G&W step 5 and the internal force)."""
         st, mt = state, state.materials
+        cells = st.cells if st.cells is not None else fbar.NONE
         self.inverted, self.unconverged = particle_step.evaluate_particles(
             st.kinematics.kernel_code, tuple(range(dim)), tuple(range(st.S.shape[1])), u_local,
             st.node_index, st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS,
             st.F_n, st.volume_n, mt.only_model, mt.models, mt.params, mt.material_of, st.history_packed, True, True,
-            self.F_inc, self.F, self.sigma, self.history, self.force, self.tangent, self.hoop)
+            cells.cell, cells.count, self.F_inc, self.F, self.sigma, self.history, self.force, self.tangent,
+            self.hoop, self.fbar_q, self.fbar_weight)
         self.u = u_local.copy()
 
     def matches(self, u_local):
@@ -90,27 +96,30 @@ class StepProblem:
     the step being solved (:attr:`state`, a StepState). ``formulation``:
     what deforms the particles (:mod:`pimpm.implicit.formulation`; Guilkey &
     Weiss's velocity formulation if None). ``nonsymmetric_materials``: names
-    of the material models whose tangent is not symmetric.
+    of the material models whose tangent is not symmetric; ``f_bar``: some
+    material averages its volume change per cell (F-bar: a non-symmetric
+    tangent that couples the particles of a cell, pimpm.kernels.fbar).
     """
 
     def __init__(self, grid, residual_scale, formulation=None, stages=None, nonsymmetric_materials=(),
-                 terms=()):
+                 terms=(), f_bar=False):
         self.grid = grid
         #: the run's nodal terms (pimpm.terms): their forces and derivatives join the particles'
         self.terms = list(terms)
         self.formulation = formulation or VelocityFormulation()
         materials = (f"material model {', '.join(sorted(set(nonsymmetric_materials)))} (its "
                      "consistent tangent is not symmetric)" if nonsymmetric_materials else "")
+        averaged = ("F-bar (its consistent tangent is not symmetric)" if f_bar else "")
         frictional = [t.name for t in self.terms if not t.symmetric_tangent]
         friction = (f"frictional contact with {', '.join(frictional)} (Coulomb's return map has "
                     "no symmetric tangent)" if frictional else "")
         #: why the assembled tangent is not symmetric ("" if it is)
-        self.asymmetry = self.formulation.asymmetry or materials or friction
+        self.asymmetry = self.formulation.asymmetry or materials or averaged or friction
         #: is the assembled tangent symmetric? (then a symmetric factorization applies)
         self.symmetric = not self.asymmetry
         #: has every material's stiffness density major symmetry? (each particle's
         #: element matrix is then symmetric: the kernel computes half of it)
-        self.symmetric_density = not nonsymmetric_materials
+        self.symmetric_density = not nonsymmetric_materials and not f_bar
         self.residual_scale = float(residual_scale)
         self.stages = stages or {}
         self.state = None
@@ -388,6 +397,14 @@ class StepProblem:
             st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS, evaluation.F_inc,
             evaluation.tangent, evaluation.hoop, grid.ghost_ijk,
             pattern.width, pattern.indptr, pattern.slot_position, values)
+        cells = st.cells
+        if cells is not None and cells.count:
+            outside = fbar_kernels.cell_blocks(
+                st.kinematics.kernel_code, tuple(range(grid.dim)), fbar.cell_box_side(st), cells.order, cells.start,
+                st.node_index, st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS,
+                evaluation.F_inc, evaluation.fbar_q, evaluation.fbar_weight, grid.ghost_ijk, pattern.width,
+                pattern.indptr, pattern.slot_position, values)
+            fbar.check_cell_boxes(outside)
         return values
 
 

@@ -4,8 +4,10 @@ residual, computed particle by particle without storing a matrix
 (:func:`pimpm.kernels.particle_step.tangent_product`)."""
 import numpy as np
 
+from ..kernels import fbar as fbar_kernels
 from ..kernels import particle_step
 from .momentum import projection_diagonal
+from ..fbar import cell_box_side, check_cell_boxes
 
 _NO_RADIUS = np.zeros(0)
 
@@ -61,6 +63,18 @@ class TangentShell:
                 st.node_index, st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS,
                 ev.F_inc, ev.tangent, ev.hoop)
 
+    def _cell_arguments(self):
+        """The F-bar cell coupling's kernel arguments (pimpm.kernels.fbar),
+        or None without averaged cells on this rank."""
+        st, ev = self.state, self.evaluation
+        cells = st.cells
+        if cells is None or not cells.count:
+            return None
+        return (st.kinematics.kernel_code, tuple(range(self.grid.dim)), cell_box_side(st), cells.order,
+                cells.start, st.node_index, st.active, st.S, st.G,
+                st.radius if st.radius is not None else _NO_RADIUS, ev.F_inc, ev.fbar_q, ev.fbar_weight,
+                self.grid.ghost_ijk)
+
     def mult(self, mat, x, y):
         st, grid = self.state, self.grid
         xs = x.getArray(readonly=True).copy()
@@ -70,6 +84,9 @@ class TangentShell:
         x_local = grid.owned_to_local(xs_free) if self.project is None else self.project(xs_free)[1]
         local = np.empty((grid.n_local_nodes, grid.dim))
         particle_step.tangent_product(*self._kernel_arguments(), x_local, local)
+        cell = self._cell_arguments()
+        if cell is not None:
+            check_cell_boxes(fbar_kernels.cell_product(*cell, x_local, local))
         out = grid.sum_to_owned(local)
         if st.integrator.stiffness_factor != 1.0:       # HHT: (1 + alpha) K
             out *= st.integrator.stiffness_factor
@@ -87,6 +104,9 @@ class TangentShell:
         st, grid = self.state, self.grid
         local = np.empty((grid.n_local_nodes, grid.dim))
         particle_step.tangent_diagonal(*self._kernel_arguments(), local)
+        cell = self._cell_arguments()
+        if cell is not None:
+            check_cell_boxes(fbar_kernels.cell_diagonal(*cell, local))
         out = grid.sum_to_owned(local)
         if self.project is not None:             # (collective: every rank takes this branch)
             # momentum formulation: diag(K) diag(R), a Jacobi approximation of diag(K R)

@@ -39,6 +39,7 @@ class StepState:
     group_order: np.ndarray = None    # momentum formulation: particles sorted by the node set they touch
     group_starts: np.ndarray = None   # first particle of each group in that order
     group_nodes: np.ndarray = None    # (n_groups, nn) ghosted-local nodes of each group
+    cells: object = None              # pimpm.fbar.AveragedCells: F-bar's cells (None: no F-bar)
 
     # made while Newton iterates on the step (pimpm.implicit.problem)
     evaluation: object = None             # ParticleEvaluation: the particles at the last iterate

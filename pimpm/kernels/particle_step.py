@@ -42,7 +42,7 @@ def _in_plane_inverse(F, dim, out):
 @jit
 def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G, radius, F_n, volume_n,
                        only_model, models, params, material_of, h_in, want_tangent, want_force,
-                       F_inc, F, sigma, h_out, force, tangent, hoop):
+                       fbar_cell, n_cells, F_inc, F, sigma, h_out, force, tangent, hoop, fbar_q, fbar_weight):
     """Kinematics, material points and (``want_force``) the internal force
     for the ghosted-local nodal displacement ``u`` (n_nodes, dim); footprint
     entries that are not ``active`` (no weight, no gradient) are skipped.
@@ -61,7 +61,18 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     read at run time, GIMP 2-5%). ``only_model``:
     :func:`.material_point.model_tag` of the model every particle's
     material shares (compiled once per model, with only its code), or of
-    MIXED."""
+    MIXED.
+
+    F-bar (:mod:`pimpm.kernels.fbar`; de Souza Neto et al. 1996, Coombs et
+    al. 2018): ``fbar_cell`` (n,) holds each particle's cell among the
+    ``n_cells`` cells averaged on this rank, -1 for particles of materials
+    without it (an empty array: none at all). The material then sees
+    F_inc_bar = (J_bar / J_inc)^(1/n) F_inc, n the number of stretched
+    axes (2 in plane strain, 3 otherwise), J_bar = sum_q V_q J_inc,q /
+    sum_q V_q over the cell; F_inc and the force keep the true increment,
+    F is F_inc_bar F(t). With ``want_tangent``, ``tangent`` and ``hoop``
+    include the particle's own F-bar term and ``fbar_q`` (n, 3, 3) = v Q,
+    ``fbar_weight`` (n,) = v / sum_q v_q are what the cell coupling needs."""
     dim = len(axes)
     n = S.shape[0]
     nn = len(footprint)
@@ -91,35 +102,39 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
         force[:] = 0.0
     inverted = 0
     unconverged = 0
+    # F-bar: each averaged cell's volume at t and at the iterate
+    fbar = len(fbar_cell) > 0 and kinematics != PLANE_STRESS
+    stretched = 2 if (dim == 2 and kinematics == GENERAL) else 3
+    cell_volume_n = np.zeros(n_cells if fbar else 0)
+    cell_volume = np.zeros(n_cells if fbar else 0)
+    Fb = np.empty((3, 3))
+    if fbar:
+        for p in range(n):
+            c = fbar_cell[p]
+            if c >= 0:
+                _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)
+                cell_volume_n[c] += volume_n[p]
+                cell_volume[c] += volume_n[p] * det3(Fi)
     for p in range(n):
-        grad[:] = 0.0
-        for k in range(nn):
-            if not active[p, k]:
-                continue
-            node = node_index[p, k]
-            if dim == 2:              # written out: numba leaves loops of length dim rolled
-                u0, u1, g0, g1 = u[node, 0], u[node, 1], G[p, k, 0], G[p, k, 1]
-                grad[0, 0] += u0 * g0
-                grad[0, 1] += u0 * g1
-                grad[1, 0] += u1 * g0
-                grad[1, 1] += u1 * g1
-            else:
-                for a in range(dim):
-                    for b in range(dim):
-                        grad[a, b] += u[node, a] * G[p, k, b]
-        for a in range(3):
-            for b in range(3):
-                Fi[a, b] = (1.0 if a == b else 0.0) + (grad[a, b] if (a < dim and b < dim) else 0.0)
-        if kinematics == AXISYMMETRIC:
-            u_r = 0.0
-            for k in range(nn):
-                u_r += S[p, k] * u[node_index[p, k], 0]
-            Fi[2, 2] = 1.0 + u_r / radius[p]
-        increment_inverts = not (det3(Fi) > 0.0)
+        _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)
+        J_inc = det3(Fi)                 # full 3x3: thickness (plane stress), hoop (axisymmetric)
+        increment_inverts = not (J_inc > 0.0)
         if increment_inverts:
             inverted += 1
+        _copy(Fi, Fb)
+        averaged = fbar and fbar_cell[p] >= 0 and not increment_inverts
+        if averaged:
+            c = fbar_cell[p]
+            ratio = cell_volume[c] / cell_volume_n[c] / J_inc
+            if ratio > 0.0:
+                scale = ratio ** (1.0 / stretched)
+                for a in range(stretched):
+                    for b in range(stretched):
+                        Fb[a, b] = scale * Fi[a, b]
+            else:
+                averaged = False
         copy3(F_n, p, Fn)
-        matmul3(Fi, Fn, Fp)
+        matmul3(Fb, Fn, Fp)
         m = material_of[p]
         for k in range(n_history):
             hi[k] = h_in[p, k]
@@ -141,7 +156,8 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
                 sigma[p, a, b] = sp[a, b]
         for k in range(n_history):
             h_out[p, k] = ho[k]
-        J_inc = det3(Fi)                 # full 3x3: thickness (plane stress), hoop (axisymmetric)
+        if kinematics == PLANE_STRESS:
+            J_inc = det3(Fi)             # the thickness solve has set F_inc's thickness stretch
         if want_tangent:
             v = volume_n[p] * J_inc      # current volume
             for a in range(dim):
@@ -152,6 +168,16 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
                                                            + (sp[cc, d] if a == b else 0.0))
             if kinematics == AXISYMMETRIC:
                 _hoop_terms(c_scratch, sp, v, dim, hoop[p])
+            if fbar:
+                if averaged:
+                    fbar_weight[p] = v / cell_volume[fbar_cell[p]]
+                    _fbar_own_terms(c_scratch, sp, v, dim, stretched, kinematics == AXISYMMETRIC,
+                                    fbar_q, p, tangent, hoop)
+                else:
+                    fbar_weight[p] = 0.0
+                    for a in range(3):
+                        for b in range(3):
+                            fbar_q[p, a, b] = 0.0
         if not want_force:
             continue
         _in_plane_inverse(Fi, dim, Finv)
@@ -168,6 +194,74 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
             for k in range(nn):
                 force[node_index[p, k], 0] += h * S[p, k]
     return inverted, unconverged
+
+
+@jit
+def _copy(A, out):
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = A[a, b]
+
+
+@jit
+def _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi):
+    """Fi = F_inc of particle p for the ghosted-local displacement u: 1 +
+    sum_i u_i (x) G_ip (G&W step 5), and the axisymmetric hoop stretch
+    1 + u_r / r."""
+    grad[:] = 0.0
+    for k in range(nn):
+        if not active[p, k]:
+            continue
+        node = node_index[p, k]
+        if dim == 2:              # written out: numba leaves loops of length dim rolled
+            u0, u1, g0, g1 = u[node, 0], u[node, 1], G[p, k, 0], G[p, k, 1]
+            grad[0, 0] += u0 * g0
+            grad[0, 1] += u0 * g1
+            grad[1, 0] += u1 * g0
+            grad[1, 1] += u1 * g1
+        else:
+            for a in range(dim):
+                for b in range(dim):
+                    grad[a, b] += u[node, a] * G[p, k, b]
+    for a in range(3):
+        for b in range(3):
+            Fi[a, b] = (1.0 if a == b else 0.0) + (grad[a, b] if (a < dim and b < dim) else 0.0)
+    if kinematics == AXISYMMETRIC:
+        u_r = 0.0
+        for k in range(nn):
+            u_r += S[p, k] * u[node_index[p, k], 0]
+        Fi[2, 2] = 1.0 + u_r / radius[p]
+
+
+@jit
+def _fbar_own_terms(c, sigma, v, dim, stretched, axisymmetric, fbar_q, p, tangent, hoop):
+    """Particle p's share of the F-bar tangent (de Souza Neto et al. 1996):
+    with Q = (c_acbb - (n - 2) sigma_ac) / n (b over the n stretched axes),
+    the internal force varies by v g_kc Q_ac (div_bar - div) besides the
+    standard terms, div the particle's divergence of the variation and
+    div_bar its cell's volume-weighted mean. fbar_q[p] = v Q; the
+    -v Q (x) div part is the particle's own (it joins ``tangent`` and, in
+    axisymmetry, the hoop couplings: -v Q_ac delta_bd, in-plane row x hoop
+    column -v Q_ac, hoop row -v Q_22 delta_bd and -v Q_22); the mean's part
+    couples the cell's particles (:mod:`pimpm.kernels.fbar`)."""
+    for a in range(3):
+        for cc in range(3):
+            s = 0.0
+            for b in range(stretched):
+                s += c[a, cc, b, b]
+            fbar_q[p, a, cc] = v * (s - (stretched - 2) * sigma[a, cc]) / stretched
+    for a in range(dim):
+        for cc in range(dim):
+            q = fbar_q[p, a, cc]
+            for b in range(dim):
+                tangent[p, a, cc, b, b] -= q
+    if axisymmetric:
+        q22 = fbar_q[p, 2, 2]
+        for b in range(dim):
+            hoop[p, dim * b + b] -= q22
+            for cc in range(dim):
+                hoop[p, dim * dim + dim * b + cc] -= fbar_q[p, b, cc]
+        hoop[p, 2 * dim * dim] -= q22
 
 
 @jit

@@ -50,12 +50,43 @@ def stencil_slot(i, j, node_ijk, dim, width):
 
 
 @jit
-def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes, ghost_x, ghost_y):
+def mark_cells(order, start, node_index, active, node_ijk, dim, width, mark):
+    """mark[i, slot of j] = True for every pair of nodes (i, j) that
+    particles of one cell reach (the couplings of :func:`pimpm.kernels.fbar.cell_blocks`)."""
+    n_nodes_max = node_index.shape[1] * 64
+    nodes = np.empty(n_nodes_max, dtype=np.int64)
+    for c in range(len(start) - 1):
+        count = 0
+        for i in range(start[c], start[c + 1]):
+            p = order[i]
+            for k in range(node_index.shape[1]):
+                if not active[p, k]:
+                    continue
+                node = node_index[p, k]
+                seen = False
+                for q in range(count):
+                    if nodes[q] == node:
+                        seen = True
+                        break
+                if not seen and count < n_nodes_max:
+                    nodes[count] = node
+                    count += 1
+        for a in range(count):
+            for b in range(count):
+                mark[nodes[a], stencil_slot(nodes[a], nodes[b], node_ijk, dim, width)] = True
+
+
+@jit
+def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes, ghost_x, ghost_y,
+                  cell_order, cell_start):
     """Block CSR of the couplings (indptr over all ghosted-local nodes,
     column node indices sorted; ``ghost_x``, ``ghost_y``: the ghosted box's
     nodes along x and y) and slot_position (n_nodes, slots): the
     block's position in the CSR, -1 where uncoupled. Every owned node keeps
-    its diagonal block (the mass term and prescribed rows need it)."""
+    its diagonal block (the mass term and prescribed rows need it).
+    ``cell_order``, ``cell_start`` (:func:`pimpm.kernels.fbar.cell_groups`;
+    empty without F-bar): the nodes that particles of one averaged cell
+    reach are coupled too (the F-bar cell coupling)."""
     side = 2 * width + 1
     slots = side ** dim
     centre = (slots - 1) // 2
@@ -77,6 +108,8 @@ def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes
             for m in range(nn):
                 if active[p, m]:
                     mark[i, stencil_slot(i, node_index[p, m], node_ijk, dim, width)] = True
+    if len(cell_start) > 1:
+        mark_cells(cell_order, cell_start, node_index, active, node_ijk, dim, width, mark)
     for i in owned_nodes:
         mark[i, centre] = True
     indptr = np.zeros(n_nodes + 1, dtype=np.int64)

@@ -45,7 +45,9 @@ def make_material(spec):
         raise ValueError("material spec needs a density")
     mu, kappa = elastic_moduli(spec)
     values = {k: spec[k] for k in MODELS[model].parameters if spec.get(k) is not None}
-    return Material(MODELS[model], mu, kappa, spec["density"], **values)
+    material = Material(MODELS[model], mu, kappa, spec["density"], **values)
+    material.f_bar = bool(spec.get("f_bar", False))
+    return material
 
 
 __all__ = ["MODELS", "REQUIRED", "Material", "Model", "Parameter", "make_material", "elastic_moduli",

@@ -168,6 +168,8 @@ class Material(ElasticConstants):
         unknown = set(values) - set(model.parameters)
         if unknown:
             raise ValueError(f"{model.name} takes no parameter {sorted(unknown)[0]!r}")
+        #: is the volume change averaged over each cell (F-bar, pimpm.kernels.fbar)?
+        self.f_bar = False
         self.values = {}
         for key, parameter in model.parameters.items():
             value = values.get(key)

@@ -26,6 +26,8 @@ class MaterialTable:
         for mi, (_, index) in enumerate(material_groups):
             self.material_of[index] = mi
         self.width = max([self.history_width(m) for m in materials] + [0])
+        #: each material's F-bar switch (pimpm.kernels.fbar)
+        self.f_bar = np.array([bool(getattr(m, "f_bar", False)) for m in materials], dtype=bool)
         # one model for every particle: the kernels compile only its code
         codes = set(self.models.tolist())
         self.only_model = kernel_codes.model_tag(codes.pop() if len(codes) == 1 else kernel_codes.MIXED)

@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .. import bc
+from .. import bc, fbar
 from ..errors import THICKNESS_FAILURE, StepFailed
 from ..kernels import particle_step
 from ..kernels import pattern as kernel_pattern
@@ -43,6 +43,9 @@ class ParticleStress:
         self.radius = _NO_RADIUS if radius is None else radius
         self.axes = tuple(range(sim.dim))
         self.footprint = tuple(range(S.shape[1]))
+        # F-bar: the cells at the step's start, and the volumes their averages weigh
+        self.cells = fbar.averaged_cells(sim.grid, p["x"], self.table) if sim.f_bar else fbar.NONE
+        self.volume = (p["volume0"] * np.linalg.det(p["F"]) if self.cells.count else p["volume0"])
 
     def particle_to_grid(self):
         """Ghosted-local (n_nodes, 1 + 2 dim): mass, momentum and the internal
@@ -87,9 +90,10 @@ class ParticleStress:
         h_out = np.empty_like(packed)
         inverted, unconverged = particle_step.evaluate_particles(
             sim.kinematics.kernel_code, self.axes, self.footprint, dt * v_local, self.node_index,
-            self.active, self.S, self.G, self.radius, p["F"], p["volume0"], table.only_model, table.models,
-            table.params, table.material_of, packed, False, False, F_inc, F, sigma, h_out,
-            np.empty((0, dim)), np.empty((0,) + (dim,) * 4), np.empty((0, 2 * dim * dim + 1)))
+            self.active, self.S, self.G, self.radius, p["F"], self.volume, table.only_model, table.models,
+            table.params, table.material_of, packed, False, False, self.cells.cell, self.cells.count,
+            F_inc, F, sigma, h_out, np.empty((0, dim)), np.empty((0,) + (dim,) * 4),
+            np.empty((0, 2 * dim * dim + 1)), np.empty((0, 3, 3)), np.empty(0))
         self.pending = F, sigma, h_out
         return inverted, unconverged
 

@@ -11,7 +11,7 @@ import time as wallclock
 import numpy as np
 from mpi4py import MPI
 
-from .. import bc, weak_nodes
+from .. import bc, fbar, weak_nodes
 from ..errors import THICKNESS_FAILURE, StepFailed
 from ..implicit import StepState, constraint_scale
 from ..kernels import pattern as kernel_pattern
@@ -70,12 +70,13 @@ def prepare(sim, dt):
     groups = materials.groups
     history = sim.particle_history()
     active = kernel_pattern.active_entries(S, G)
+    cells = fbar.averaged_cells(grid, p["x"], materials) if sim.f_bar else fbar.NONE
     state = StepState(
         dt=dt, integrator=sim.integrator, kinematics=sim.kinematics,
         node_index=node_index, S=S, G=G,
         F_n=p["F"], volume_n=p["volume0"] * tensors.det(p["F"]),
         material_groups=groups, materials=materials, history_packed=materials.pack(history),
-        active=active, pattern=sim.tangent_pattern(node_index, active),
+        active=active, pattern=sim.tangent_pattern(node_index, active, cells), cells=cells,
         mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
         history=history, radius=sim.kinematics.radius(p["x"]),
         particle_mass=p["mass"], projection_floor=1e4 * sim.mass_floor,

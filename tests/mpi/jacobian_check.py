@@ -24,7 +24,7 @@ integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
 plastic = len(sys.argv) > 4 and sys.argv[4] in ("j2", "j2finite")
-options = sys.argv[5:]                    # a kinematics name, "momentum", "onecell", "weak=F"
+options = sys.argv[5:]                    # a kinematics name, "momentum", "onecell", "fbar", "weak=F"
 weak = [a for a in options if a.startswith("weak=")]
 options = [a for a in options if not a.startswith("weak=")]
 if weak:                                  # the fraction of pimpm.weak_nodes
@@ -32,7 +32,8 @@ if weak:                                  # the fraction of pimpm.weak_nodes
     PETSc.Options().setValue("pimpm_weak_node_fraction", weak[0].split("=")[1])
 momentum = "momentum" in options
 one_cell = "onecell" in options           # a column one cell wide in x (and y in 3D)
-kinematics = next((a for a in options if a not in ("momentum", "default", "onecell")), None)
+f_bar = "fbar" in options                 # every material averages its volume change per cell
+kinematics = next((a for a in options if a not in ("momentum", "default", "onecell", "fbar")), None)
 comm = MPI.COMM_WORLD
 raw = {
     "grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8],
@@ -97,6 +98,9 @@ if plastic:   # small-strain J2 with a low yield stress: particles yield in the 
     raw["materials"]["m"] = {"model": "j2_small_strain" if sys.argv[4] == "j2" else "j2_finite_strain",
                              "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
                              "density": 10.0, "yield_stress": 2.0e5, "hardening_modulus": 1.0e6}
+if f_bar:
+    for material in raw["materials"].values():
+        material["f_bar"] = True
 sim = Simulation(validate(raw), comm)
 sim.advance(0.01)
 sim.advance(0.01)
@@ -162,7 +166,7 @@ from pimpm.implicit.formulation import make_formulation
 from pimpm.solver import NewtonSolver
 cfg_mf = dict(sim.config["solver"], preset="matrix-free")
 shell_problem = StepProblem(sim.grid, problem.residual_scale, formulation=make_formulation(
-    "momentum" if momentum else "velocity"))
+    "momentum" if momentum else "velocity"), f_bar=sim.f_bar)
 shell_solver = NewtonSolver(sim.grid, shell_problem, cfg_mf)
 shell_problem.begin(state)
 shell_problem.form_jacobian(None, X, shell_solver.J, shell_solver.J)
@@ -191,6 +195,6 @@ if comm.rank == 0:
     print(f"jacobian_check {integrator} dim={sim.dim} shape={shape} ranks={comm.size} free_dofs={n_free} "
           f"formulation={'momentum' if momentum else 'velocity'} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok} "
-          f"asymmetry={asymmetry:.3e} declared_symmetric={problem.symmetric} weak_pairs={weak_pairs}")
+          f"asymmetry={asymmetry:.3e} declared_symmetric={problem.symmetric} weak_pairs={weak_pairs} f_bar={f_bar}")
 ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8 and free_matrix_difference < 1e-14
 sys.exit(0 if ok else 1)

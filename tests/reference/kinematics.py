@@ -95,6 +95,17 @@ def element_tangents(kinematics, sigma, c, F_inc, G, S, volume, radius):
     return K
 
 
+def dense_tangent(kinematics, sigma, c, F_inc, G, S, volume, radius, node_index, n_nodes):
+    """The particles' element tangents summed into a dense (n_nodes dim)^2 matrix."""
+    n, nn, dim = G.shape
+    blocks = element_tangents(kinematics, sigma, c, F_inc, G, S, volume, radius)
+    dense = np.zeros((n_nodes * dim,) * 2)
+    dofs = (node_index[:, :, None] * dim + np.arange(dim)).reshape(n, nn * dim)
+    for p in range(n):                      # test code: a loop over particles is fine here
+        dense[np.ix_(dofs[p], dofs[p])] += blocks[p]
+    return dense
+
+
 def hoop_tangents(sigma, c, F_inc, G, S, volume, radius):
     """Axisymmetric additions to the element stiffness (n, nn*2, nn*2): the
     hoop strain increment du_r S_j / r couples with the in-plane gradients
@@ -121,3 +132,24 @@ def scatter_pairs(node_index, pairs, n_nodes):
 def gradient(node_index, G, nodal):
     """sum_i q_i (x) G_ip: (n, k, dim) gradient of a nodal field (MPM intro eq. 5)."""
     return np.einsum("pka,pkb->pab", nodal[node_index], G)
+
+
+def expected_couplings(groups, node_index, active, owned_nodes, n_nodes):
+    """(n_nodes, n_nodes) bool: the node pairs that particles of one group
+    (``groups``: lists of particle indices; a group per particle, or per
+    F-bar cell) reach, and the owned diagonals: what the tangent's pattern
+    must hold."""
+    coupled = np.zeros((n_nodes, n_nodes), dtype=bool)
+    for members in groups:
+        on = np.unique(np.concatenate([node_index[p][active[p]] for p in members]))
+        coupled[np.ix_(on, on)] = True
+    coupled[owned_nodes, owned_nodes] = True
+    return coupled
+
+
+def pattern_couplings(pattern, n_nodes):
+    """(n_nodes, n_nodes) bool: the block couplings a TangentPattern holds."""
+    in_pattern = np.zeros((n_nodes, n_nodes), dtype=bool)
+    block_rows = np.repeat(np.arange(len(pattern.indptr) - 1), np.diff(pattern.indptr))
+    in_pattern[block_rows, pattern.indices] = True
+    return in_pattern

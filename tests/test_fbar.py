@@ -1,0 +1,215 @@
+"""F-bar (pimpm.kernels.fbar, the F-bar branch of
+pimpm.kernels.particle_step.evaluate_particles) against its numpy reference
+(tests/reference/fbar.py): the averaged increment, the stress, the internal
+force, the assembled tangent with its cell coupling, the matrix-free
+product and diagonal, and the pattern; its properties (every particle of a
+cell changes volume alike; a cell with one particle, or a uniform
+increment, is the standard formulation); input checks. The finite-difference
+checks of the whole Jacobian on 1-3 ranks are in test_parallel_kernels."""
+import numpy as np
+import petsc4py
+
+petsc4py.init([])
+import pytest  # noqa: E402
+from mpi4py import MPI  # noqa: E402
+
+from reference import fbar as RF  # noqa: E402
+from reference import kinematics as RK  # noqa: E402
+from reference.update import update_stress  # noqa: E402
+from pimpm import fbar  # noqa: E402
+from pimpm.config import validate  # noqa: E402
+from pimpm.config.checks import ConfigError  # noqa: E402
+from pimpm.implicit.problem import ParticleEvaluation  # noqa: E402
+from pimpm.kernels import fbar as fbar_kernels  # noqa: E402
+from pimpm.kernels import particle_step  # noqa: E402
+from pimpm.materials import tensors  # noqa: E402
+from pimpm.simulation import Simulation  # noqa: E402
+from pimpm.steps import implicit as implicit_step  # noqa: E402
+from pimpm.transfer import grid_to_particle  # noqa: E402
+
+RNG = np.random.default_rng(11)
+
+
+def relative(a, b):
+    return np.linalg.norm(np.asarray(a) - np.asarray(b)) / max(np.linalg.norm(b), 1e-300)
+
+
+def raw_input(kinematics, shape, model, three_d=False, f_bar=True, ppc=2):
+    material = {"model": model, "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7, "density": 10.0, "f_bar": f_bar}
+    if model.startswith("j2"):
+        material.update(yield_stress=2.0e5, hardening_modulus=1.0e6)
+    raw = {"grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8], "shape_functions": shape},
+           "kinematics": kinematics, "materials": {"m": material},
+           "bodies": [{"name": "a", "material": "m", "particles_per_cell": ppc, "velocity": [1.0, 2.0],
+                       "geometry": {"type": "box", "lower": [0.5, 0.5], "upper": [3.0, 2.5]}}],
+           "time": {"integrator": "newmark", "dt": 0.01, "end_time": 1.0, "gravity": [0.0, -981.0]}}
+    if three_d:
+        raw["grid"].update(lower=[0.0, 0.0, 0.0], upper=[2.5, 2.0, 2.0], cells=[5, 4, 4])
+        raw["bodies"][0].update(velocity=[1.0, 2.0, -1.0],
+                                geometry={"type": "box", "lower": [0.5, 0.5, 0.5], "upper": [1.5, 1.5, 1.5]})
+        raw["time"]["gravity"] = [0.0, 0.0, -981.0]
+        raw.pop("kinematics")
+    return raw
+
+
+def prepared(*args, **kwargs):
+    """A simulation a step into its run (F and the history are not trivial)
+    and the state of its next step."""
+    sim = Simulation(validate(raw_input(*args, **kwargs)), MPI.COMM_SELF)
+    sim.advance(0.01)
+    state, _ = implicit_step.prepare(sim, 0.01)
+    sim.problem.begin(state)
+    return sim, state
+
+
+CASES = [("plane_strain", "gimp", "j2_finite_strain", False), ("plane_strain", "linear", "neo_hookean", False),
+         ("plane_strain", "bspline", "j2_small_strain", False),
+         ("axisymmetric", "linear", "j2_finite_strain", False),
+         ("axisymmetric", "gimp", "neo_hookean_compressible", False), ("3d", "gimp", "neo_hookean", True),
+         ("3d", "linear", "hencky", True)]
+
+
+@pytest.mark.parametrize("kinematics,shape,model,three_d", CASES)
+def test_f_bar_kernels_equal_the_numpy_reference(kinematics, shape, model, three_d):
+    sim, st = prepared(kinematics, shape, model, three_d)
+    grid, dim = sim.grid, sim.dim
+    cells = st.cells
+    assert cells.count > 0 and np.all(cells.cell >= 0)
+    assert np.max(np.bincount(cells.cell)) > 1                     # cells hold several particles
+    u = 0.01 * RNG.standard_normal((grid.n_local_nodes, dim))
+    # numpy reference
+    grad = RK.gradient(st.node_index, st.G, u)
+    F_inc = RK.deformation_increment(st.kinematics, grad, st.radius,
+                                     lambda: grid_to_particle(st.node_index, st.S, u))
+    F_bar = RF.averaged_increment(st.kinematics, F_inc, st.volume_n, cells.cell)
+    F = np.matmul(F_bar, st.F_n)
+    sigma, c, _ = update_stress(st.material_groups, st.kinematics, F, st.history, True, F_bar.copy())
+    pairs = RK.internal_force_pairs(st.kinematics, sigma, F_inc, st.G, st.S, st.volume_n, st.radius)
+    force = RK.scatter_pairs(st.node_index, pairs, grid.n_local_nodes)
+    dense = RK.dense_tangent(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius, st.node_index,
+                             grid.n_local_nodes)
+    n, nn = st.S.shape
+    dense += RF.fbar_tangent(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius, cells.cell,
+                             st.node_index, grid.n_local_nodes)
+    # compiled
+    ev = ParticleEvaluation(st, grid.n_local_nodes, dim)
+    ev.evaluate(st, u, dim)
+    assert ev.inverted == 0
+    assert relative(ev.F_inc, F_inc) < 1e-12            # the true increment is kept ...
+    assert relative(ev.F, F) < 1e-12                    # ... and the material sees the averaged one
+    assert relative(ev.sigma, sigma) < 1e-10
+    assert relative(ev.force, force) < 1e-10
+    assert sim.problem.symmetric is False and sim.problem.symmetric_density is False
+    values = sim.problem._tangent_values(ev)
+    pattern = st.pattern
+    compiled = np.zeros_like(dense)
+    rows = np.repeat(np.arange(len(pattern.scalar_indptr) - 1), np.diff(pattern.scalar_indptr))
+    np.add.at(compiled, (rows, pattern.scalar_indices), values)
+    assert relative(compiled, dense) < 1e-10
+    # the matrix-free product and diagonal of the same tangent
+    radius = st.radius if st.radius is not None else np.zeros(0)
+    arguments = (st.kinematics.kernel_code, tuple(range(dim)), tuple(range(nn)), st.node_index,
+                 st.active, st.S, st.G, radius, ev.F_inc, ev.tangent, ev.hoop)
+    cell_arguments = (st.kinematics.kernel_code, tuple(range(dim)), fbar.cell_box_side(st), cells.order,
+                      cells.start, st.node_index, st.active, st.S, st.G, radius, ev.F_inc, ev.fbar_q,
+                      ev.fbar_weight, grid.ghost_ijk)
+    x = RNG.standard_normal((grid.n_local_nodes, dim))
+    product = np.empty_like(x)
+    particle_step.tangent_product(*arguments, x, product)
+    assert fbar_kernels.cell_product(*cell_arguments, x, product) == 0
+    assert relative(product.reshape(-1), dense @ x.reshape(-1)) < 1e-10
+    diagonal = np.empty_like(x)
+    particle_step.tangent_diagonal(*arguments, diagonal)
+    assert fbar_kernels.cell_diagonal(*cell_arguments, diagonal) == 0
+    assert relative(diagonal.reshape(-1), np.diag(dense)) < 1e-10
+    # the pattern holds every coupling of a cell's particles (one node wider
+    # per axis than a particle's footprint with GIMP and B-splines)
+    coupled = RK.expected_couplings(np.split(cells.order, cells.start[1:-1]), st.node_index, st.active,
+                                    grid.owned_local_nodes, grid.n_local_nodes)
+    assert np.array_equal(RK.pattern_couplings(pattern, grid.n_local_nodes), coupled)
+    assert pattern.width == sim.shape.nodes_per_axis
+
+
+def test_every_particle_of_a_cell_changes_volume_alike():
+    """det F_inc_bar is the cell's volume-weighted mean J_inc at every particle."""
+    sim, st = prepared("plane_strain", "gimp", "neo_hookean")
+    u = 0.02 * RNG.standard_normal((sim.grid.n_local_nodes, 2))
+    ev = ParticleEvaluation(st, sim.grid.n_local_nodes, 2)
+    ev.evaluate(st, u, 2)
+    J_inc = tensors.det(ev.F_inc)
+    J_bar = tensors.det(ev.F) / tensors.det(st.F_n)
+    cell = st.cells.cell
+    mean = np.bincount(cell, st.volume_n * J_inc) / np.bincount(cell, st.volume_n)
+    assert np.max(np.abs(J_bar - mean[cell])) < 1e-12
+    assert np.ptp(J_inc) > 1e-3                    # the true increments differ
+
+
+def test_f_bar_is_the_standard_formulation_with_one_particle_per_cell():
+    """The mean of one particle is its own J: the F-bar run equals the standard one."""
+    out = []
+    for f_bar in (False, True):
+        raw = raw_input("plane_strain", "gimp", "j2_finite_strain", f_bar=f_bar, ppc=1)
+        raw["grid"]["boundary"] = {"ymin": "fixed"}            # the body lands on a fixed floor
+        raw["bodies"][0]["geometry"]["lower"] = [0.5, 0.0]
+        raw["bodies"][0]["velocity"] = [0.5, -0.5]
+        sim = Simulation(validate(raw), MPI.COMM_SELF)
+        for _ in range(3):
+            sim.advance(0.01)
+        out.append((sim.particles["x"].copy(), sim.particles["stress"].copy()))
+    assert relative(out[1][0], out[0][0]) < 1e-12
+    assert relative(out[1][1], out[0][1]) < 1e-8
+    assert np.max(np.abs(out[0][1])) > 1e4                     # and it is stressed
+
+
+@pytest.mark.parametrize("kinematics,three_d", [("plane_strain", False), ("3d", True)])
+def test_a_homogeneous_increment_is_not_changed(kinematics, three_d):
+    """u affine in x: every particle has the same J_inc, so F_bar = F."""
+    sim, st = prepared(kinematics, "gimp", "neo_hookean", three_d)
+    dim = sim.dim
+    A = 0.01 * RNG.standard_normal((dim, dim))
+    u = (sim.grid.lower + sim.grid.ghost_ijk * sim.grid.spacing) @ A.T      # ghosted-local nodes
+    standard = ParticleEvaluation(st, sim.grid.n_local_nodes, dim)
+    averaged = ParticleEvaluation(st, sim.grid.n_local_nodes, dim)
+    averaged.evaluate(st, u, dim)
+    cells, st.cells = st.cells, fbar.NONE
+    standard.evaluate(st, u, dim)
+    st.cells = cells
+    assert np.ptp(tensors.det(averaged.F_inc)) < 1e-12
+    assert relative(averaged.F, standard.F) < 1e-13
+    assert relative(averaged.force, standard.force) < 1e-12
+
+
+def test_explicit_step_averages_the_volume_change_per_cell():
+    raw = raw_input("plane_strain", "gimp", "neo_hookean")
+    raw["time"] = {"integrator": "explicit", "end_time": 1.0, "gravity": [0.0, -981.0]}
+    raw["grid"]["boundary"] = {"ymin": "fixed"}                # the body lands on a fixed floor
+    raw["bodies"][0]["geometry"]["lower"] = [0.5, 0.0]
+    raw["bodies"][0]["velocity"] = [0.5, -0.5]
+    sim = Simulation(validate(raw), MPI.COMM_SELF)
+    x0 = sim.particles["x"].copy()
+    cells = fbar.averaged_cells(sim.grid, x0, sim.material_table())
+    F0, V0 = sim.particles["F"].copy(), sim.particles["volume0"] * tensors.det(sim.particles["F"])
+    sim.advance(0.5 * sim.stable_time_step())
+    J_bar = tensors.det(sim.particles["F"]) / tensors.det(F0)
+    per_cell = [np.ptp(J_bar[cells.cell == c]) for c in range(cells.count)]
+    assert max(per_cell) < 1e-12 and np.ptp(J_bar) > 1e-6
+    assert np.all(V0 > 0)
+
+
+@pytest.mark.parametrize("edit,expected", [
+    (lambda raw: raw["materials"]["m"].update(f_bar="yes"), "materials.m.f_bar"),
+    (lambda raw: raw.update(kinematics="plane_stress"), "plane_stress"),
+    (lambda raw: raw["time"].update(formulation="momentum"), "momentum"),
+])
+def test_f_bar_input_is_checked(edit, expected):
+    raw = raw_input("plane_strain", "gimp", "neo_hookean")
+    edit(raw)
+    with pytest.raises(ConfigError, match=expected):
+        validate(raw)
+
+
+def test_f_bar_is_off_unless_asked():
+    raw = raw_input("plane_strain", "gimp", "neo_hookean")
+    del raw["materials"]["m"]["f_bar"]
+    sim = Simulation(validate(raw), MPI.COMM_SELF)
+    assert not sim.f_bar and sim.pattern_width() == sim.shape.nodes_per_axis - 1
