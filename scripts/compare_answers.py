@@ -38,7 +38,7 @@ CASES = {
     "billet-gimp": ("billet.yaml", []),
     "billet-linear": ("billet.yaml", ["grid.shape_functions=linear"]),
     "billet-dynamic": ("billet_dynamic.yaml", []),
-    "upsetting": ("upsetting.yaml", []),
+    "upsetting": ("upsetting.yaml", ["grid.shape_functions=linear"]),   # the input's until issue 28
     "upsetting-3d": ("upsetting_3d.yaml", []),
     "billet-explicit": ("billet_explicit.yaml", ["time.end_time=0.02"]),
     "four-disks": ("four_disks.yaml", []),
