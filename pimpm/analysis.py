@@ -9,7 +9,7 @@ import sys
 import time as wallclock
 
 from . import interrupt
-from .errors import StepFailed, UsageError
+from .errors import OutputFailed, StepFailed, UsageError
 from .io import History, ResultWriter, prepare_output_directory, write_results
 from .io.checkpoint import PHYSICS_KEYS, physics_json, read_checkpoint, write_checkpoint
 from .io.history import history_columns
@@ -39,6 +39,10 @@ class Observer:
     def interrupted(self, analysis, stop):
         """A signal stopped the run (``stop``: pimpm.interrupt.Interrupted);
         the simulation is at its last completed step."""
+
+    def output_failed(self, analysis, failure):
+        """Writing the results failed (pimpm.errors.OutputFailed): the run
+        stops, writing nothing more."""
 
     def finish(self, analysis, status):
         """After the loop (status 0 done, 1 numerical failure)."""
@@ -73,8 +77,8 @@ class Analysis:
         sim, control = self.sim, self.control
         status = 0
         try:
-            self._notify("start")
             try:
+                self._notify("start")
                 while not control.done(sim.time) and (max_steps is None or sim.step_index < max_steps):
                     interrupt.inject(sim.comm.rank, sim.step_index + 1)
                     interrupt.check(sim.comm)                 # collective, at every step boundary
@@ -96,6 +100,10 @@ class Analysis:
             except interrupt.Interrupted as stop:             # on every rank at once
                 self._notify("interrupted", stop)
                 status = stop.exit_status
+            except OutputFailed as failure:                   # on every rank at once
+                self.failure = str(failure)
+                self._notify("output_failed", failure)
+                status = 1
             self._notify("finish", status)
         except BaseException:
             if sim.comm.size == 1:
@@ -169,8 +177,11 @@ class OutputObserver(Observer):
         if info["step"] % self.every == 0 or info["final"]:
             self._write(analysis.sim)
 
+    def output_failed(self, analysis, failure):
+        self.every = None                         # write nothing more
+
     def finish(self, analysis, status):
-        if status and self.written != analysis.sim.step_index:
+        if status and self.every is not None and self.written != analysis.sim.step_index:
             self._write(analysis.sim)             # keep the last good state
 
     def close(self):
@@ -225,6 +236,17 @@ class ProgressObserver(Observer):
         if self.root:
             print(f"pimpm: error: {failure}, even after {analysis.control.max_cuts} step cuts. "
                   f"Results up to step {sim.step_index} (t = {sim.time:.6g}) are in {self.directory}.",
+                  file=sys.stderr, flush=True)
+
+    def output_failed(self, analysis, failure):
+        sim = analysis.sim
+        if self.root:
+            checkpoint = os.path.join(self.directory, "checkpoint.h5")
+            resume = (f"the run continues from {checkpoint} with 'python -m pimpm {self.input_path} "
+                      f"--restart' once there is room" if os.path.isfile(checkpoint) else
+                      "no checkpoint was written (output.checkpoint_every)")
+            print(f"pimpm: error: {failure}. The run stops after step {sim.step_index} "
+                  f"(t = {sim.time:.6g}); the results written before are intact; {resume}",
                   file=sys.stderr, flush=True)
 
     def interrupted(self, analysis, stop):
@@ -329,10 +351,13 @@ def run(config, comm, overwrite=False, echo=print, restart=False, input_path=Non
             echo(line)
     if restart and comm.rank == 0:
         echo(restart_line(sim, directory))
+    # a step's checkpoint after its results and history row: a restart takes the
+    # results of the checkpoint's step as written (issue 32: a full disk between the
+    # two lost that step for good)
     observers = [ProgressObserver(sim, directory, echo, input_path),
-                 CheckpointObserver(sim, directory, config["output"]["checkpoint_every"]),
                  OutputObserver(sim, directory, config["output"]["every"], restart),
-                 HistoryObserver(sim, os.path.join(directory, "history.csv"), restart)]
+                 HistoryObserver(sim, os.path.join(directory, "history.csv"), restart),
+                 CheckpointObserver(sim, directory, config["output"]["checkpoint_every"])]
     status = Analysis(sim, observers, control).run()
     if sim.solver is not None:     # (after an exception, the exit handler frees it on every rank)
         sim.solver.destroy()

@@ -11,6 +11,12 @@ class StepFailed(Exception):
     left the grid). The state of the simulation is the last good step."""
 
 
+class OutputFailed(Exception):
+    """Writing the results failed (a full disk, a vanished directory): raised
+    on every rank at once (the writers agree on it), the run ends with status
+    1 and the files as they were after the last good write."""
+
+
 class UsageError(Exception):
     """Bad use (existing output directory, ...): exit status 2, nothing written."""
 

@@ -580,7 +580,15 @@ def test_set_adds_a_new_section_and_mapping_values(tmp_path):
     ("time.dt", ["--set time.dt", "expected KEY.PATH=VALUE"]),
     ("=3", ["expected KEY.PATH=VALUE"]),
     ("bodies[x].name=a", ["expected KEY.PATH=VALUE"]),
-    ("time.dt=[1,", ["--set time.dt=[1,", "not valid YAML"]),
+    ("time.dt=[1,", ["--set time.dt=[1,", "YAML syntax error"]),
+    # the limits of input files hold for --set (issue 32, defect 5: these recursed or grew
+    # memory without bound)
+    ("title=&a [*a]", ["--set title=&a [*a]", "alias *a refers to the anchor it is inside of"]),
+    ("title=" + "[" * 5000 + "]" * 5000, ["--set title=[[[", "...: the value", "nested more than 64 deep"]),
+    ("title=[&a [" + ", ".join(["x"] * 9) + "]" + "".join(
+        f", &b{i} [" + ", ".join([f"*{'a' if i == 0 else f'b{i - 1}'}"] * 9) + "]" for i in range(8)) + "]",
+     ["--set title=", "values once aliases are expanded"]),
+    ("title={a: 1, a: 2}", ["--set title={a: 1, a: 2}", "given twice"]),
     ("title.x=1", ["--set title.x=1", "title", "not a mapping"]),
 ])
 def test_bad_set_names_the_override(tmp_path, override, wanted):

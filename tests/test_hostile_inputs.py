@@ -145,3 +145,22 @@ def test_overlapping_deformable_bodies_are_refused():
     raw["bodies"][0:1] = [left, right]
     sim = Simulation(validate(raw), MPI.COMM_SELF)
     assert np.all(np.isin([0, 1], sim.particles["body"]))
+
+
+def test_yaml_merge_keys_are_valid_input(tmp_path):
+    """A mapping merged in with <<: *anchor and a key given beside it that
+    overrides the merged one is valid YAML (issue 32: it was refused as a
+    duplicated key); a key given twice beside a merge still is refused."""
+    text = BAR_TEXT.replace(
+        "  elastic: {model: neo_hookean, youngs_modulus: 1000.0, poisson_ratio: 0.3, density: 10.0}",
+        "  base: &base {model: neo_hookean, youngs_modulus: 500.0, poisson_ratio: 0.3, density: 10.0}\n"
+        "  elastic: {<<: *base, youngs_modulus: 1000.0}")
+    assert "<<: *base" in text
+    config = load_text(tmp_path, text)
+    assert config["materials"]["elastic"]["youngs_modulus"] == 1000.0
+    assert config["materials"]["elastic"]["density"] == 10.0
+    with pytest.raises(ConfigError) as err:
+        load_text(tmp_path, text.replace("{<<: *base, youngs_modulus: 1000.0}",
+                                         "{<<: *base, youngs_modulus: 1000.0, youngs_modulus: 2.0}"),
+                  name="twice.yaml")
+    assert "materials.elastic.youngs_modulus is given twice" in str(err.value)

@@ -56,3 +56,68 @@ def test_a_bad_injection_plan_is_refused(monkeypatch):
         faults.parse_injection("PIMPM_INJECT_FAILURE", "WHERE", faults.POINTS)
     monkeypatch.setenv("PIMPM_INJECT_FAILURE", "output:1:2")
     assert faults.parse_injection("PIMPM_INJECT_FAILURE", "WHERE", faults.POINTS) == ("output", 1, 2)
+
+
+def _bar_config(directory):
+    import yaml
+    from pimpm.config import validate
+    with open(BAR) as f:
+        raw = yaml.safe_load(f)
+    raw["output"] = {"directory": str(directory), "every": 1, "checkpoint_every": 2}
+    return validate(raw)
+
+
+def test_a_full_disk_stops_the_run_cleanly_and_it_continues_once_there_is_room(tmp_path, monkeypatch, capsys):
+    """Issue 32, defect 6: a full disk (the file system's free space made to
+    run out after step 5's output) is one line and status 1, the files as
+    after the last good write (no .tmp left), and --restart continues the run
+    from its last checkpoint to the same end."""
+    import petsc4py
+    petsc4py.init([])
+    from mpi4py import MPI
+    from pimpm.analysis import run
+    from pimpm.io import space
+    out = tmp_path / "out"
+    calls = {"n": 0}
+
+    def free_bytes(directory):
+        calls["n"] += 1                # the initial output, then each step: its results, checkpoint
+        return 10**12 if calls["n"] <= 9 else 1000
+    monkeypatch.setattr(space, "free_bytes", free_bytes)
+    status = run(_bar_config(out), MPI.COMM_WORLD, echo=lambda *a, **k: None)
+    err = capsys.readouterr().err
+    assert status == 1
+    assert "pimpm: error: not enough room in" in err and "no space left on device" in err
+    assert "continues from" in err and "--restart" in err
+    assert not [p for p in os.listdir(out) if p.endswith(".tmp")]
+    import h5py
+    with h5py.File(out / "checkpoint.h5", "r") as f:
+        assert 0 < int(f.attrs["step"]) < 10
+    monkeypatch.setattr(space, "free_bytes", lambda directory: 10**12)
+    status = run(_bar_config(out), MPI.COMM_WORLD, echo=lambda *a, **k: None, restart=True)
+    assert status == 0
+    with h5py.File(out / "results.h5", "r") as f:
+        assert sorted(int(s) for s in f["steps"]) == list(range(11))
+
+
+def test_a_disk_that_fills_on_two_ranks_stops_both_without_a_hang(tmp_path):
+    """A real full file system (a 2 MiB tmpfs; needs root to mount): two
+    ranks stop together, status 1, one message, no traceback."""
+    tiny = tmp_path / "tiny"
+    tiny.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(tiny)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a tmpfs here (not root)")
+    try:
+        with open(tiny / "filler", "wb") as f:      # leave about 1.3 MiB: the first steps fit
+            f.write(b"\0" * (700 * 1024))
+        cmd = [MPIEXEC, "-n", "2", sys.executable, "-m", "pimpm", BAR, "--output", str(tiny / "o"),
+               "--set", "output.every=1", "--set", "output.checkpoint_every=1",
+               "--set", "time.end_time=1000"]
+        proc = subprocess.run(cmd, env=mpi_env(), cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 1, proc.stderr[-3000:]
+        assert "Traceback" not in proc.stderr
+        assert proc.stderr.count("pimpm: error:") == 1 and "no space left on device" in proc.stderr.lower()
+        assert not [p for p in os.listdir(tiny / "o") if p.endswith(".tmp")]
+    finally:
+        subprocess.run(["umount", str(tiny)], capture_output=True)

@@ -37,7 +37,7 @@ from .loads import _validate_loads
 from .checks import _MISSING, ROOT, ConfigError, _enum, _fail, _Section
 from .schema import KINEMATICS, TOP_KEYS
 from .sections import _validate_grid, _validate_output, _validate_parallel, _validate_solver, _validate_time
-from .yaml_input import _line_for, read_yaml
+from .yaml_input import _line_for, parse_text, read_yaml
 
 __all__ = ["ConfigError", "load_config", "validate"]
 
@@ -188,7 +188,6 @@ def _parse_key(text):
 def apply_overrides(raw, overrides):
     """Set each ``KEY.PATH=VALUE`` in ``raw`` (in place); returns [(normalized
     key path, the override's text)]. ConfigError for a malformed one."""
-    import yaml
     given = []
     for text in overrides:
         key, eq, value_text = text.partition("=")
@@ -196,11 +195,10 @@ def apply_overrides(raw, overrides):
         if keys is None:
             raise ConfigError(f"--set {text}: expected KEY.PATH=VALUE, e.g. time.dt=0.0025 or "
                               f"bodies[0].velocity=[0,-1]")
-        try:
-            value = yaml.safe_load(value_text) if value_text.strip() else None
-        except yaml.YAMLError as err:
-            raise ConfigError(f"--set {text}: the value is not valid YAML ({err.problem}): expected "
-                              f"a number, a string, a [list] or a {{mapping}}") from None
+        # the limits of input files hold here too (issue 32: '&a [*a]' recursed, an
+        # alias bomb grew without bound)
+        shown = text if len(text) <= 80 else text[:77] + "..."
+        value = parse_text(f"--set {shown}: the value", value_text)[0] if value_text.strip() else None
         node = raw
         for depth, k in enumerate(keys[:-1]):
             where = ".".join(str(x) for x in keys[:depth + 1])

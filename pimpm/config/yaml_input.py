@@ -56,19 +56,34 @@ def read_yaml(fname):
     if len(data) > MAX_INPUT_BYTES:
         raise ConfigError(f"{fname}: more than {MAX_INPUT_BYTES} bytes: expected an input file "
                           f"of at most {MAX_INPUT_BYTES // 2**20} MiB")
+    return parse_text(fname, text)
+
+
+def parse_text(name, text):
+    """(data, the line of every key path) of the YAML ``text`` within the
+    limits above (depth, expanded size, no self-referencing alias, each key
+    once per mapping): the one parser of every YAML pimpm reads, input
+    files and ``--set`` values alike (``name`` says where the text came
+    from in messages). ConfigError for a syntax error or a text beyond the
+    limits."""
+    if len(text) > MAX_INPUT_BYTES:
+        raise ConfigError(f"{name}: more than {MAX_INPUT_BYTES} characters: expected at most "
+                          f"{MAX_INPUT_BYTES // 2**20} MiB of YAML")
     try:
-        _check_events(fname, text)
+        _check_events(name, text)
         loader = Loader(text)
         try:
             node = loader.get_single_node()
+            lines = {}
+            if node is not None:
+                # before the construction, which flattens merge keys (<<: *base) into
+                # the mapping: a key given beside a merge overrides it, it is no duplicate
+                _index_nodes(node, ROOT, lines, name, set())
             raw = loader.construct_document(node) if node is not None else None
         finally:
             loader.dispose()
     except yaml.YAMLError as err:
-        raise ConfigError(_yaml_error_message(fname, err)) from None
-    lines = {}
-    if node is not None:
-        _index_nodes(node, ROOT, lines, fname, set())
+        raise ConfigError(_yaml_error_message(name, err)) from None
     return raw, lines
 
 

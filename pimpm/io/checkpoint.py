@@ -24,6 +24,7 @@ import numpy as np
 
 from .directory import CHECKPOINT_H5
 from .hdf5 import collective_transfer, write_slab
+from .space import check_room
 
 FORMAT = 1
 #: the input sections a restart must not change (the rest: time, solver, output may)
@@ -58,6 +59,9 @@ def write_checkpoint(sim, control, directory):
     gathered = comm.allgather(local)
     counts = {name: np.array([g[name][0] for g in gathered], dtype=np.int64) for name in sets}
     fields = {name: dict(sorted(gathered[0][name][1].items())) for name in sets}
+    nbytes = sum(int(counts[name].sum()) * int(np.prod(shape, dtype=np.int64)) * np.dtype(dtype).itemsize
+                 for name in sets for shape, dtype in fields[name].values())
+    check_room(comm, directory, nbytes, "the checkpoint")     # (the previous one is kept)
     dxpl = collective_transfer() if comm.size > 1 else None
     f = _open(tmp, "w", comm)
     try:

@@ -19,8 +19,10 @@ import os
 
 import numpy as np
 
+from ..errors import OutputFailed
 from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF, POLYVERTEX, _attr_str, _ordered, _to_file_components
-from .plan import StepPlanner
+from .plan import StepPlanner, plan_bytes
+from .space import check_room
 from .xdmf import write_xdmf
 
 __all__ = ["ResultWriter", "H5_NAME", "PARTICLES_XDMF", "GRID_XDMF"]
@@ -186,9 +188,20 @@ class ResultWriter:
         if self._file is None:
             raise RuntimeError("ResultWriter is closed")
         plan = self.planner.plan(step, time, particle_fields, grid_fields, grid_box)
+        check_room(self.comm, self.directory, plan_bytes(plan), f"step {plan['step']} of the results")
         # --- from here on every rank runs the same HDF5 calls with the same arguments
-        self._write_plan(plan, particle_fields, grid_fields)
-        self._file.flush()
+        error = None
+        try:
+            self._write_plan(plan, particle_fields, grid_fields)
+            self._file.flush()
+        except OSError as err:            # a full disk: h5py's write or flush (issue 32)
+            error = f"{type(err).__name__}: {err}"
+        errors = self.comm.allgather(error) if self.size > 1 else [error]
+        failed = [(rank, e) for rank, e in enumerate(errors) if e is not None]
+        if failed:
+            rank, e = failed[0]
+            raise OutputFailed(f"writing step {plan['step']} to {self.directory}/results.h5 failed on rank "
+                               f"{rank} of {self.size} ({e})")
         self._records[plan["step"]] = plan["record"]
         self._write_xdmf_checked()
 
@@ -305,4 +318,4 @@ class ResultWriter:
         if self.size > 1:
             err = self.comm.bcast(err, root=0)
         if err is not None:
-            raise RuntimeError("writing XDMF files failed on rank 0: " + err)
+            raise OutputFailed(f"writing the XDMF files in {self.directory} failed ({err})")

@@ -3,6 +3,7 @@ import csv
 import io
 import os
 
+from ..errors import OutputFailed
 from .safe_files import atomic_write_text, open_append, open_new
 
 
@@ -35,6 +36,7 @@ class History:
 
     def __init__(self, comm, path, rigid_names, dim, continue_after=None, load_names=(), contact_names=()):
         self.comm = comm
+        self.path = path
         self.rigid_names = rigid_names
         self.load_names = list(load_names)
         self.contact_names = list(contact_names)
@@ -63,8 +65,20 @@ class History:
         atomic_write_text(path, text.getvalue())
 
     def write(self, info):
-        if self.file is None:
-            return
+        """Append the step's row (rank 0). Collective: a failed write (a full
+        disk) is OutputFailed on every rank."""
+        error = None
+        if self.file is not None:
+            try:
+                self._write_row(info)
+            except OSError as err:
+                error = f"{type(err).__name__}: {err}"
+        if self.comm.size > 1:
+            error = self.comm.bcast(error, root=0)
+        if error is not None:
+            raise OutputFailed(f"writing {self.path} failed ({error})")
+
+    def _write_row(self, info):
         row = [info["step"], repr(info["time"]), repr(info["dt"]), info["newton_iterations"],
                info["linear_iterations"], info["backtracks"], info["linear_fallbacks"],
                info["step_cuts"], repr(info["residual_initial"]), repr(info["residual_final"]),

@@ -213,3 +213,13 @@ class StepPlanner:
                                 shape=space + tuple(out_comp))
         my = boxes[self.rank]
         return dict(fields=fields, start=my[0], size=my[1])
+
+
+def plan_bytes(plan):
+    """The bytes of the datasets a step ``plan`` writes (every rank's share)."""
+    total = 0
+    for part in ("particles", "grid"):
+        if plan[part] is not None:
+            for f in plan[part]["fields"].values():
+                total += int(np.prod(f["shape"], dtype=np.int64)) * np.dtype(f["dtype"]).itemsize
+    return total

@@ -24,8 +24,15 @@ def atomic_write_text(path, text):
     """Replace ``path`` by ``text``: written to ``path.tmp`` first, fsynced,
     then renamed over ``path`` (readers see the old file or the new one)."""
     tmp = path + ".tmp"
-    with open_new(tmp) as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    try:
+        with open_new(tmp) as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:                              # a full disk: no half-written .tmp left behind
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
