@@ -64,13 +64,49 @@ def split_arguments(argv):
 
 
 def options_file_problem(petsc_args):
-    """The message for an -options_file that is not a readable regular file, or None."""
+    """The message for an -options_file that is not a readable regular file
+    or whose contents PETSc would refuse at start-up (with an error block and
+    a traceback, issue 32), or None."""
     for option, value in zip(petsc_args, petsc_args[1:] + [None]):
         if option in ("-options_file", "-options_file_yaml"):
             if value is None or value.startswith("-"):
                 return f"{option}: expected a file name after it"
             if not os.path.isfile(value) or not os.access(value, os.R_OK):
                 return f"{option} {value}: expected a readable file of PETSc options"
+            problem = _options_file_contents_problem(option, value)
+            if problem:
+                return problem
+    return None
+
+
+def _options_file_contents_problem(option, path):
+    """What PETSc would refuse in the options file ``path``: text that is
+    not UTF-8, a line that is not '-option [value]' or 'alias -new -old'
+    (comments from # or !), or for -options_file_yaml YAML that is not a
+    mapping within pimpm's YAML limits."""
+    from .config.yaml_input import MAX_INPUT_BYTES, parse_text
+    from .config.checks import ConfigError
+    if os.path.getsize(path) > MAX_INPUT_BYTES:
+        return f"{option} {path}: expected an options file of at most {MAX_INPUT_BYTES // 2**20} MiB"
+    try:
+        with open(path, "rb") as f:
+            text = f.read().decode("utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        return f"{option} {path}: cannot read it ({err.__class__.__name__}): expected a UTF-8 text file of options"
+    if option == "-options_file_yaml":
+        try:
+            data = parse_text(f"{option} {path}", text)[0]
+        except ConfigError as err:
+            return str(err)
+        if data is not None and not isinstance(data, dict):
+            return f"{option} {path}: expected a YAML mapping of option names to values"
+        return None
+    for number, line in enumerate(text.splitlines(), start=1):
+        tokens = line.split("#", 1)[0].split("!", 1)[0].split()
+        if tokens and not (tokens[0].startswith("-") or tokens[0] == "alias"):
+            shown = tokens[0] if len(tokens[0]) <= 40 else tokens[0][:37] + "..."
+            return (f"{option} {path} line {number}: {shown!r}: expected '-option [value]' or "
+                    f"'alias -new -old' (PETSc's options file format)")
     return None
 
 

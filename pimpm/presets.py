@@ -122,12 +122,16 @@ def _flag(command_line, name, default):
 
 
 def _number(command_line, name, default):
+    """A positive, finite number option (the Guilkey-Weiss tolerances)."""
     if name not in command_line:
         return default
     try:
-        return float(command_line[name])
+        value = float(command_line[name])
     except ValueError:
-        raise ValueError(f"-{name} {command_line[name]}: expected a number") from None
+        value = None
+    if value is None or not 0.0 < value < float("inf"):     # NaN too (issue 32)
+        raise ValueError(f"-{name} {command_line[name]}: expected a positive, finite number")
+    return value
 
 
 #: the line search of runs with unilateral contact (pimpm.terms.contact). A
@@ -190,9 +194,11 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
                      and setting("pc_type") in ("lu", "cholesky"))
     conv = solver_config["convergence"]
     test = _word(command_line, "pimpm_convergence_test", conv["test"])
+    # checked whichever test runs: a bad option is bad input even where it is not used
+    tolerances = (_number(command_line, "pimpm_gw_displacement_tol", float(conv["displacement_tolerance"])),
+                  _number(command_line, "pimpm_gw_energy_tol", float(conv["energy_tolerance"])))
     if test == "guilkey_weiss":
-        convergence = (test, _number(command_line, "pimpm_gw_displacement_tol", float(conv["displacement_tolerance"])),
-                       _number(command_line, "pimpm_gw_energy_tol", float(conv["energy_tolerance"])))
+        convergence = (test,) + tolerances
     elif test == "petsc":
         convergence = (test, None, None)
     else:

@@ -76,6 +76,55 @@ def _check_tolerances(snes, yaml_options, ksp=None):
             raise ValueError(f"{where} = {value:g}: expected {what}")
 
 
+#: PETSc options whose values PETSc takes but that make a run meaningless or
+#: fail later as a "numerical failure" (issue 32): name -> (is it good?, what is expected)
+OPTION_RANGES = {
+    "snes_linesearch_damping": (lambda v: 0.0 < v < float("inf"), "a finite number > 0"),
+    "snes_linesearch_maxstep": (lambda v: 0.0 < v < float("inf"), "a finite number > 0"),
+    "snes_linesearch_max_it": (lambda v: v >= 1 and v == int(v), "an integer >= 1"),
+    "mat_mffd_err": (lambda v: 0.0 < v < float("inf"), "a finite number > 0"),
+    "mat_mumps_icntl_14": (lambda v: v >= 0 and v == int(v), "an integer >= 0 (a percentage)"),
+    "mat_mumps_icntl_23": (lambda v: v >= 0 and v == int(v), "an integer >= 0 (megabytes; 0: MUMPS decides)"),
+    "ksp_gmres_restart": (lambda v: v >= 1 and v == int(v), "an integer >= 1"),
+    "pc_gamg_agg_nsmooths": (lambda v: v >= 0 and v == int(v), "an integer >= 0"),
+}
+#: object types that need a Python context pimpm cannot be given from options
+PYTHON_TYPES = ("ksp_type", "pc_type", "snes_type", "mat_type", "snes_linesearch_type")
+
+
+def _check_option_values(yaml_options, program_options, prefixes=("", "fallback_")):
+    """Refuse the values of :data:`OPTION_RANGES` PETSc would take, and
+    python object types (their context is pimpm's to set), naming the
+    option (solver.petsc.NAME or -NAME). ``program_options``: the preset's
+    and the YAML's (:func:`scoped_options`); the command line's win."""
+    db = PETSc.Options()
+
+    def lookup(key):
+        if db.hasName(key):
+            return db.getString(key)
+        return None if key not in program_options else str(program_options[key])
+
+    for prefix in prefixes:
+        for name, (good, what) in OPTION_RANGES.items():
+            full = prefix + name
+            text = lookup(full)
+            if text is None:
+                continue
+            try:
+                value = float(text)
+            except (TypeError, ValueError):
+                value = None
+            if value is None or not good(value):
+                where = f"solver.petsc.{full}" if full in yaml_options else f"-{full}"
+                raise ValueError(f"{where} = {text}: expected {what}")
+        for name in PYTHON_TYPES:
+            full = prefix + name
+            if (lookup(prefix + name) or "").strip().lower() == "python":
+                where = f"solver.petsc.{full}" if full in yaml_options else f"-{full}"
+                raise ValueError(f"{where} = python: expected a PETSc type (a python {name[:-5]} needs a "
+                                 f"context that options cannot give)")
+
+
 def _check_factorizations(snes, yaml_options, fallback=None, ksp=None):
     """A factorization package that PETSc does not have for the chosen
     factorization (-pc_factor_mat_solver_type nonsense, or superlu for a
@@ -201,6 +250,7 @@ class NewtonSolver:
         self.destroyed = False
         _LIVE_SOLVERS.add(self)
         try:
+            _check_option_values(solver_config["petsc"], self.options)
             _check_tolerances(self.snes, solver_config["petsc"], self.linear_ksp())
             _check_factorizations(self.snes, solver_config["petsc"], self.fallback, self.linear_ksp())
         except ValueError:

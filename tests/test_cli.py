@@ -265,6 +265,16 @@ def text_case(text):
     return setup
 
 
+def with_file(name, content, option):
+    """The bar input and a file ``name`` with ``content`` passed as ``option name``."""
+    def setup(directory):
+        with open(os.path.join(directory, name), "wb") as f:
+            f.write(content)
+        write_yaml(os.path.join(directory, "bad.yaml"), bar())
+        return ["bad.yaml", option, name]
+    return setup
+
+
 def set_key(path, value):
     """An edit setting cfg[path...] = value (path is a list of keys/indices)."""
     def edit(cfg):
@@ -438,6 +448,30 @@ BAD_INPUTS = {
     "2000 step cuts": (
         None, yaml_case(lambda cfg: cfg["time"].update(max_cuts=2000)),
         ["time.max_cuts = 2000", "from 0 to 50"]),
+    # issue 32: option values PETSc takes but that make the run meaningless or fail later
+    "NaN line-search damping": (
+        None, yaml_case(lambda cfg: None, "-snes_linesearch_damping", "nan"),
+        ["-snes_linesearch_damping = nan", "finite number > 0"]),
+    "negative MUMPS workspace increase": (
+        None, yaml_case(lambda cfg: None, "-mat_mumps_icntl_14", "-100"),
+        ["-mat_mumps_icntl_14 = -100", "integer >= 0"]),
+    "negative matrix-free differencing parameter in the YAML": (
+        None, yaml_case(set_key(["solver"], {"petsc": {"mat_mffd_err": -1}})),
+        ["solver.petsc.mat_mffd_err = -1", "finite number > 0"]),
+    "fallback GMRES restart 0": (
+        None, yaml_case(lambda cfg: None, "-fallback_ksp_gmres_restart", "0"),
+        ["-fallback_ksp_gmres_restart = 0", "integer >= 1"]),
+    "python KSP without a context": (
+        None, yaml_case(lambda cfg: None, "-ksp_type", "python"), ["-ksp_type = python", "PETSc type"]),
+    "negative Guilkey-Weiss tolerance": (
+        None, yaml_case(lambda cfg: None, "-pimpm_gw_displacement_tol", "-1"),
+        ["-pimpm_gw_displacement_tol -1", "positive, finite number"]),
+    "NaN Guilkey-Weiss tolerance with the PETSc test": (
+        None, yaml_case(lambda cfg: None, "-pimpm_gw_energy_tol", "nan"),
+        ["-pimpm_gw_energy_tol nan", "positive, finite number"]),
+    "an options file in the YAML": (
+        None, yaml_case(set_key(["solver"], {"petsc": {"options_file": "opts.txt"}})),
+        ["solver.petsc.options_file", "on the command line"]),
     # issue 32: tolerances that make every step "converge" at once
     "infinite Newton tolerance": (
         None, yaml_case(lambda cfg: None, "-snes_atol", "inf"), ["-snes_atol = inf", "finite number >= 0"]),
@@ -461,6 +495,19 @@ BAD_INPUTS = {
     "options file that does not exist": (
         None, yaml_case(lambda cfg: None, "-options_file", "/nonexistent"),
         ["-options_file /nonexistent", "readable file"]),
+    # issue 32: PETSc would stop these with an error block and a traceback
+    "an options file with a line that is no option": (
+        None, with_file("opts.txt", b"-snes_rtol 1e-6\nthis is not an option\n", "-options_file"),
+        ["-options_file opts.txt line 2", "'this'", "-option [value]"]),
+    "a binary options file": (
+        None, with_file("opts.txt", bytes(range(256)) * 4, "-options_file"),
+        ["-options_file opts.txt", "UTF-8"]),
+    "a YAML options file with a syntax error": (
+        None, with_file("opts.yaml", b"snes_rtol: [1, 2\n", "-options_file_yaml"),
+        ["-options_file_yaml opts.yaml", "YAML syntax error"]),
+    "a YAML options file that is a list": (
+        None, with_file("opts.yaml", b"- snes_rtol\n", "-options_file_yaml"),
+        ["-options_file_yaml opts.yaml", "mapping"]),
     "overlapping deformable bodies": (
         None, yaml_case(lambda cfg: cfg["bodies"].insert(1, dict(cfg["bodies"][0], name="twin"))),
         ["bodies[1].geometry", "lie inside body", "overlap"]),

@@ -217,3 +217,35 @@ def test_energy_balance_of_plastic_compression(kinematics, model, integrator):
     assert abs(work - stored - plastic) < 0.01 * work
     if sim.solver is not None:
         sim.solver.destroy()
+
+
+@pytest.mark.parametrize("model", ["j2_small_strain", "j2_finite_strain"])
+def test_softening_ends_at_zero_strength_not_a_negative_yield_stress(model):
+    """Issue 32: softening that would drive the yield stress below zero
+    (6.05 - 1000 (alpha - 0.001) reaches 0 at alpha = 0.00705) leaves a material
+    without strength: the deviatoric stress returns to zero, the plastic
+    strain only grows (it ran backwards before), the plastic work stays
+    positive; below the zero the return lands on the yield surface as before.
+    A softening steeper than 3 mu (a snap-back, no return of growing plastic
+    strain exists) ends at zero strength too."""
+    spec = dict(SPEC, model=model, softening_strain=0.001, softening_modulus=1000.0)
+    m = make_material(spec)
+    F, h = random_states(120, 0.0035, 3)
+    sigma, _, new = m.update(F, h, tangent=False)
+    s = sigma - np.trace(sigma, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
+    q = np.sqrt(1.5 * np.sum(s * s, axis=(1, 2)))
+    if model == "j2_finite_strain":          # Kirchhoff stress: sigma J
+        q = q * np.linalg.det(F)
+    alpha = new["eq_plastic_strain"]
+    assert np.all(alpha >= h["eq_plastic_strain"])
+    spent = alpha >= 0.00705
+    assert spent.sum() > 10 and (~spent).sum() > 0
+    assert np.all(q[spent] < 1e-9 * 6.0)
+    limit = yield_stress(alpha, 6.0, 50.0, 0.001, 1000.0)
+    plastic = (alpha > h["eq_plastic_strain"]) & ~spent
+    assert plastic.sum() > 0
+    np.testing.assert_allclose(q[plastic], limit[plastic], rtol=1e-8)
+    assert np.all(new["plastic_work"] >= 0.0)
+    snap = make_material(dict(spec, hardening_modulus=-2000.0, softening_strain=None, softening_modulus=0.0))
+    _, _, new = snap.update(F, h, tangent=False)
+    assert np.all(new["eq_plastic_strain"] >= h["eq_plastic_strain"])

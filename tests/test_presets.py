@@ -87,7 +87,7 @@ def test_convergence_test_and_its_tolerances():
     ({"pimpm_preset": "cg-gamg"}, {}, {"symmetric": False}, "-pimpm_preset = 'cg-gamg'"),
     ({"pimpm_convergence_test": "energy"}, {}, {}, "-pimpm_convergence_test energy: expected petsc or guilkey_weiss"),
     ({"pimpm_convergence_test": "guilkey_weiss", "pimpm_gw_energy_tol": "small"}, {}, {},
-     "-pimpm_gw_energy_tol small: expected a number"),
+     "-pimpm_gw_energy_tol small: expected a positive, finite number"),
 ])
 def test_bad_settings_are_named_with_their_value(command_line, solver, problem, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(")):

@@ -186,6 +186,11 @@ def _validate_solver(value, path):
             _fail(kpath, key, "a PETSc option name without spaces, e.g. snes_rtol")
         if name in petsc:
             _fail(kpath, key, f"each PETSc option given once ({name!r} is repeated)")
+        if name in ("options_file", "options_file_yaml", "options_left"):
+            # PETSc reads options files when it starts, before the input is read (issue 32: it
+            # was silently ignored)
+            _fail(kpath, val, f"a solver option: give -{name} FILE on the command line (PETSc reads "
+                              f"options files when it starts)")
         petsc[name] = _petsc_value(val, kpath)
     preset = sec.optional("preset")
     preset = "mumps" if preset is _MISSING else _enum(preset, sec.sub("preset"), SOLVER_PRESETS)

@@ -37,11 +37,19 @@ def identity_dyad(i, j, k, m):
 
 
 @jit
-def yield_stress(alpha, tau0, h1, alpha_l, h2):
+def linear_yield_stress(alpha, tau0, h1, alpha_l, h2):
     """Sulsky & Kaul eq. 2.1.19: tau0 + h1 alpha up to alpha_l, then slope -h2."""
     if not math.isfinite(alpha_l) or alpha <= alpha_l:
         return tau0 + h1 * alpha
     return tau0 + h1 * alpha_l - h2 * (alpha - alpha_l)
+
+
+@jit
+def yield_stress(alpha, tau0, h1, alpha_l, h2):
+    """eq. 2.1.19, never below zero: softening (or a negative hardening
+    modulus) ends in a material without strength, not a negative yield
+    stress (issue 32: the plastic strain then ran backwards)."""
+    return max(linear_yield_stress(alpha, tau0, h1, alpha_l, h2), 0.0)
 
 
 @jit

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..kernels.jit import jit
 from ..kernels.small import det3, matmul3, matmul3_bt, trace3
-from .common import SQ23, identity_dyad, strain_increment, sym_identity, yield_stress
+from .common import SQ23, identity_dyad, linear_yield_stress, strain_increment, sym_identity, yield_stress
 from .model import PLASTICITY, Model, history_offsets, parameter_offsets
 
 HISTORY = {"deformation_gradient": (3, 3), "elastic_left_cauchy_green": (3, 3),
@@ -71,6 +71,11 @@ def point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
             rest = norm - 2.0 * mu_bar * g1 - SQ23 * tau_l
             d_gamma = g1 + rest / (2.0 * mu_bar * (1.0 - h2 / (3.0 * mu_bar)))
             slope = -h2
+        if d_gamma < 0.0 or linear_yield_stress(alpha_n + SQ23 * d_gamma, tau0, h1, alpha_l, h2) <= 0.0:
+            # no strength left, or softening faster than the elastic stiffness (snap-back:
+            # the return had no solution of growing plastic strain): the deviator returns to zero
+            d_gamma = norm / (2.0 * mu_bar)
+            slope = 0.0
     safe = norm if norm > 0 else 1.0
     unit = w[0]                                    # (F_n, F_n^-1 no longer needed)
     s = w[1]

@@ -23,7 +23,7 @@ import math
 
 from ..kernels.jit import jit
 from ..kernels.small import trace3
-from .common import SQ32, identity_dyad, strain_increment, sym_identity, yield_stress
+from .common import SQ32, identity_dyad, linear_yield_stress, strain_increment, sym_identity, yield_stress
 from .model import PLASTICITY, Model, history_offsets, parameter_offsets
 
 ELASTIC_HISTORY = {"strain": (3, 3), "deformation_gradient": (3, 3)}
@@ -102,6 +102,11 @@ def point(prm, F, h_in, h_out, sigma, c, want_c, w, D, in_plane):
                 d2 = (q_trial - tau_l - 3.0 * mu * (alpha_l - alpha)) / (3.0 * mu - h2)
                 d_alpha = (alpha_l - alpha) + d2
                 slope = -h2
+            if d_alpha < 0.0 or linear_yield_stress(alpha + d_alpha, tau0, h1, alpha_l, h2) <= 0.0:
+                # no strength left, or softening faster than the elastic stiffness (snap-back:
+                # the return had no solution of growing plastic strain): the deviator returns to zero
+                d_alpha = q_trial / (3.0 * mu)
+                slope = 0.0
             theta = 1.0 - 3.0 * mu * d_alpha / (q_trial if q_trial > 0 else 1.0)
             theta_bar = 1.0 / (1.0 + slope / (3.0 * mu)) - (1.0 - theta)
     safe = norm if norm > 0 else 1.0

@@ -14,7 +14,7 @@ import numpy as np
 
 from pimpm.materials import tensors
 from .base import Material, PlasticParameters
-from .small_strain import yield_stress
+from .small_strain import linear_yield_stress, yield_stress
 from pimpm.materials.tensors import I3, II, IS, as_F as _as_F, outer as _outer
 
 SQ23 = np.sqrt(2.0 / 3.0)
@@ -44,6 +44,9 @@ def j2_finite(F, F_n, bbar_n, alpha_n, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0
         rest = norm - 2.0 * mu_bar * g1 - SQ23 * tau_l
         d_gamma = np.where(crossed, g1 + rest / (2.0 * mu_bar * (1.0 - h2 / (3.0 * mu_bar))), d_gamma)
         slope = np.where(crossed, -h2, slope)
+    spent = plastic & ((d_gamma < 0.0) | (linear_yield_stress(alpha_n + SQ23 * d_gamma, tau0, h1, alpha_l, h2) <= 0.0))
+    d_gamma = np.where(spent, norm / (2.0 * mu_bar), d_gamma)      # no strength left
+    slope = np.where(spent, 0.0, slope)
     safe = np.where(norm > 0, norm, 1.0)
     unit = s_trial / safe[:, None, None]
     s = s_trial - (2.0 * mu_bar * d_gamma)[:, None, None] * unit

@@ -29,13 +29,18 @@ def spatial_tangent(sigma, D, F):
     return c
 
 
-def yield_stress(alpha, tau0, h1, alpha_l, h2):
+def linear_yield_stress(alpha, tau0, h1, alpha_l, h2):
     """Sulsky & Kaul eq. 2.1.19: tau0 + h1 alpha up to alpha_l, then
     softening (or hardening) with slope -h2."""
     if not np.isfinite(alpha_l):
         return tau0 + h1 * alpha
     tau_l = tau0 + h1 * alpha_l
     return np.where(alpha <= alpha_l, tau0 + h1 * alpha, tau_l - h2 * (alpha - alpha_l))
+
+
+def yield_stress(alpha, tau0, h1, alpha_l, h2):
+    """eq. 2.1.19 floored at zero: a material that has lost its strength."""
+    return np.maximum(linear_yield_stress(alpha, tau0, h1, alpha_l, h2), 0.0)
 
 
 def j2_return(eps, eps_p, alpha, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0.0):
@@ -59,6 +64,9 @@ def j2_return(eps, eps_p, alpha, mu, kappa, tau0, h1, alpha_l=np.inf, h2=0.0):
         d2 = (q_trial - tau_l - 3.0 * mu * (alpha_l - alpha)) / (3.0 * mu - h2)
         d_alpha = np.where(crossed, (alpha_l - alpha) + d2, d_alpha)
         slope = np.where(crossed, -h2, slope)
+    spent = plastic & ((d_alpha < 0.0) | (linear_yield_stress(alpha + d_alpha, tau0, h1, alpha_l, h2) <= 0.0))
+    d_alpha = np.where(spent, q_trial / (3.0 * mu), d_alpha)       # no strength left
+    slope = np.where(spent, 0.0, slope)
     safe = np.where(norm > 0, norm, 1.0)
     unit = s_trial / safe[:, None, None]
     s = s_trial - (2.0 * mu * np.sqrt(1.5) * d_alpha)[:, None, None] * unit
