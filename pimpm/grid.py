@@ -10,6 +10,7 @@ written in local (ghosted) numbering.
 import numpy as np
 from petsc4py import PETSc
 
+from .errors import SetupError
 from .kernels import reorder, transfer
 
 
@@ -31,6 +32,8 @@ class Grid:
         self.spacing = (self.upper - self.lower) / self.cells
         self.cell_volume = float(np.prod(self.spacing))
         petsc_comm = PETSc.Comm(comm)
+        if ownership_ranges is None and comm.size > 1:
+            self._check_ranks(petsc_comm, proc_sizes)
         self.da = PETSc.DMDA().create(
             dim=self.dim, dof=self.dim, sizes=tuple(int(n) for n in self.nodes),
             stencil_type=PETSc.DMDA.StencilType.BOX, stencil_width=stencil_width,
@@ -82,6 +85,28 @@ class Grid:
             [np.ascontiguousarray(m.T).ravel() + g for m, g in zip(mesh, self.ghost_start)], axis=1)
 
     # ------------------------------------------------------------------ indices
+    def _check_ranks(self, petsc_comm, proc_sizes):
+        """PETSc's DMDA stops with an error on some ranks only (the others
+        wait) when a rank would own fewer nodes along an axis than the
+        stencil is wide (issue 32: a 3D GIMP grid of 2 cells on 4 ranks).
+        Ask PETSc for its process grid on a DMDA without a stencil and refuse
+        such a split here, on every rank alike. Collective."""
+        probe = PETSc.DMDA().create(dim=self.dim, dof=1, sizes=tuple(int(n) for n in self.nodes),
+                                    stencil_width=0, comm=petsc_comm,
+                                    proc_sizes=None if proc_sizes is None else tuple(int(p) for p in proc_sizes))
+        probe.setUp()
+        procs = probe.getProcSizes()
+        probe.destroy()
+        narrow = [d for d in range(self.dim) if self.nodes[d] // procs[d] < self.stencil_width]
+        if narrow:
+            axes = ", ".join("xyz"[d] for d in narrow)
+            raise SetupError(
+                f"grid.cells = {[int(c) for c in self.cells]}: on {self.comm.size} ranks (process grid "
+                f"{'x'.join(str(int(p)) for p in procs)}) a rank would own fewer than "
+                f"{self.stencil_width} node layers along {axes}, which the shape functions' stencil "
+                f"needs: expected at least {self.stencil_width * max(procs[d] for d in narrow) - 1} cells "
+                f"along {axes}, or fewer ranks")
+
     def _local_node_index_from_rel(self, rel):
         """Linear ghosted-local node index from ghost-relative per-axis indices
         (x fastest)."""

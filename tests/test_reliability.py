@@ -121,3 +121,16 @@ def test_a_disk_that_fills_on_two_ranks_stops_both_without_a_hang(tmp_path):
         assert not [p for p in os.listdir(tiny / "o") if p.endswith(".tmp")]
     finally:
         subprocess.run(["umount", str(tiny)], capture_output=True)
+
+
+def test_a_grid_too_small_for_the_ranks_is_refused_on_every_rank(tmp_path):
+    """Issue 32: a 3D GIMP grid of 2 cells a side on 4 ranks (process grid
+    1x2x2) made PETSc's DMDA stop ranks 1-3 with 'error code 63' tracebacks
+    while rank 0 waited; it is one line and exit 2 now, before anything is written."""
+    from helpers import run_pimpm
+    proc = run_pimpm(4, [os.path.join(ROOT, "inputs", "upsetting_3d.yaml"), "--output", "out",
+                         "--set", "grid.cells=[2,2,2]"], cwd=tmp_path, timeout=120)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr and "error code" not in proc.stderr
+    assert "grid.cells = [2, 2, 2]: on 4 ranks" in proc.stderr and "fewer ranks" in proc.stderr
+    assert not (tmp_path / "out").exists()
