@@ -401,19 +401,47 @@ def read_particle_file(path, dim):
     return _cached(("particles", dim), path, lambda: _read_particle_file(path, dim))
 
 
+#: the most particles a particle file may declare (an absurd declared shape is
+#: refused before anything is read)
+MAX_FILE_PARTICLES = 10**8
+
+
+def _read_hdf5_particles(path, dim):
+    """'position' (n, dim) and 'volume' (n,) of an HDF5 particle file; a
+    GeometryFileError for anything else: groups, links to nowhere, strings
+    or compound types where numbers belong, absurd declared shapes, a file
+    h5py cannot read (issue 32: these were tracebacks)."""
+    import h5py
+    out = {}
+    try:
+        with h5py.File(path, "r") as f:
+            for name, ndim in (("position", 2), ("volume", 1)):
+                if name not in f:
+                    raise GeometryFileError(f"has {sorted(f.keys())}: expected the datasets 'position' "
+                                            f"(n, {dim}) and 'volume' (n,)")
+                obj = f[name]
+                if not isinstance(obj, h5py.Dataset):
+                    raise GeometryFileError(f"has a {type(obj).__name__.lower()} '{name}': expected a "
+                                            f"dataset of numbers")
+                if obj.dtype.kind not in "iuf":
+                    raise GeometryFileError(f"has '{name}' of type {obj.dtype}: expected numbers")
+                if obj.ndim != ndim or (obj.shape[0] if obj.ndim else 0) > MAX_FILE_PARTICLES:
+                    raise GeometryFileError(f"has '{name}' of shape {obj.shape}: expected "
+                                            f"{'(n, %d)' % dim if ndim == 2 else '(n,)'} with n <= "
+                                            f"{MAX_FILE_PARTICLES}")
+                out[name] = np.asarray(obj[...], dtype=float)
+    except GeometryFileError:
+        raise
+    except (OSError, RuntimeError, KeyError, ValueError, TypeError) as err:
+        detail = " ".join(str(err).split())
+        raise GeometryFileError(f"is not a readable HDF5 particle file ({type(err).__name__}: {detail})") from None
+    return out["position"], out["volume"]
+
+
 def _read_particle_file(path, dim):
     axes = "xyz"[:dim]
     if path.lower().endswith((".h5", ".hdf5", ".hdf")):
-        import h5py
-        try:
-            with h5py.File(path, "r") as f:
-                if "position" not in f or "volume" not in f:
-                    raise GeometryFileError(f"has datasets {sorted(f.keys())}: expected 'position' "
-                                            f"(n, {dim}) and 'volume' (n,)")
-                x = np.asarray(f["position"][...], dtype=float)
-                volume = np.asarray(f["volume"][...], dtype=float)
-        except OSError as err:
-            raise GeometryFileError(f"is not a readable HDF5 file ({err})") from None
+        x, volume = _read_hdf5_particles(path, dim)
         if x.ndim != 2 or x.shape[1] != dim or volume.shape != (len(x),):
             raise GeometryFileError(f"has position {x.shape} and volume {volume.shape}: expected "
                                     f"(n, {dim}) and (n,)")

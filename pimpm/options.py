@@ -3,6 +3,8 @@ options database with a message that names the option when its value is
 not of the kind it takes (PETSc would only give an error code)."""
 from petsc4py import PETSc
 
+from .presets import shown
+
 _KINDS = {bool: ("getBool", "true or false (1 or 0)"), float: ("getReal", "a number"),
           int: ("getInt", "an integer"), str: ("getString", "a word")}
 
@@ -17,7 +19,7 @@ def pimpm_option(name, default, kind=None):
     try:
         return getattr(db, getter)(name, default)
     except PETSc.Error:
-        raise ValueError(f"-{name} {db.getString(name, '')}: expected {expected}") from None
+        raise ValueError(f"-{name} {shown(db.getString(name, ''))}: expected {expected}") from None
 
 
 #: -pimpm_* options that are aliases of input keys: option -> (section, key, kind)
@@ -38,7 +40,7 @@ def with_command_line(config):
         if not db.hasName(option):
             continue
         value = pimpm_option(option, config[section][key], kind)
-        given = f"-{option} {db.getString(option, '')}"
+        given = f"-{option} {shown(db.getString(option, ''))}"
         if key == "weak_node_fraction" and not 0.0 <= value < 1.0:
             raise ValueError(f"{given}: expected a number >= 0 and < 1 (0: no extension)")
         if key == "rebalance_threshold" and not value >= 1.0:

@@ -108,6 +108,15 @@ class SolverPlan:
     convergence: tuple
 
 
+def shown(value):
+    """An option's value as a message shows it: on one line (control
+    characters escaped) and at most 80 characters."""
+    text = str(value)
+    if not text.isprintable():
+        text = repr(text)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def _word(command_line, name, default):
     return command_line.get(name, default)
 
@@ -118,7 +127,7 @@ def _flag(command_line, name, default):
     text = str(command_line[name]).strip().lower()
     if text in _TRUE or text in _FALSE:
         return text in _TRUE
-    raise ValueError(f"-{name} {command_line[name]}: expected true or false (1 or 0)")
+    raise ValueError(f"-{name} {shown(command_line[name])}: expected true or false (1 or 0)")
 
 
 def _number(command_line, name, default):
@@ -130,7 +139,7 @@ def _number(command_line, name, default):
     except ValueError:
         value = None
     if value is None or not 0.0 < value < float("inf"):     # NaN too (issue 32)
-        raise ValueError(f"-{name} {command_line[name]}: expected a positive, finite number")
+        raise ValueError(f"-{name} {shown(command_line[name])}: expected a positive, finite number")
     return value
 
 
@@ -159,7 +168,7 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
     ``contact``: it has unilateral contact terms). A pure function; ValueError naming the option or key and its value."""
     preset = _word(command_line, "pimpm_preset", solver_config["preset"])
     if preset not in PRESETS:
-        raise ValueError(f"-pimpm_preset {preset}: expected one of {', '.join(PRESETS)}")
+        raise ValueError(f"-pimpm_preset {shown(preset)}: expected one of {', '.join(PRESETS)}")
     preset_options = PRESETS[preset]
     is_iterative = iterative(preset_options)
     is_matrix_free = matrix_free(preset_options)
@@ -202,7 +211,7 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
     elif test == "petsc":
         convergence = (test, None, None)
     else:
-        raise ValueError(f"-pimpm_convergence_test {test}: expected petsc or guilkey_weiss")
+        raise ValueError(f"-pimpm_convergence_test {shown(test)}: expected petsc or guilkey_weiss")
     return SolverPlan(preset=preset, options=options, iterative=is_iterative, matrix_free=is_matrix_free,
                       fallback=use_fallback, free_dofs=free_dofs, symmetric=symmetric and not is_matrix_free,
                       near_null_space=is_iterative and not is_matrix_free, on_pattern=on_pattern,

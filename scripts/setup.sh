@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-PKGS="python3-petsc4py python3-mpi4py python3-h5py-mpi python3-meshio python3-yaml python3-pytest
+PKGS="python3-petsc4py python3-mpi4py python3-h5py-mpi python3-meshio python3-yaml python3-pytest python3-hypothesis
 python3-numpy python3-numba python3-matplotlib python3-venv python3-setuptools python3-pip openmpi-bin"
 SUDO=""
 [ "$(id -u)" -eq 0 ] || SUDO="sudo"

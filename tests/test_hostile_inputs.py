@@ -164,3 +164,39 @@ def test_yaml_merge_keys_are_valid_input(tmp_path):
                                          "{<<: *base, youngs_modulus: 1000.0, youngs_modulus: 2.0}"),
                   name="twice.yaml")
     assert "materials.elastic.youngs_modulus is given twice" in str(err.value)
+
+
+def _particle_file(path, kind):
+    """An HDF5 particle file with one oddity (issue 32's escapes)."""
+    import h5py
+    with h5py.File(path, "w") as f:
+        position = np.random.default_rng(0).random((20, 2)) * 0.3 + 0.4
+        volume = np.full(20, 0.0045)
+        if kind == "group":
+            f.create_group("position")
+        else:
+            f["position"] = position
+        if kind == "strings":
+            f["volume"] = np.array([b"a"] * 20)
+        elif kind == "dangling link":
+            f["volume"] = h5py.SoftLink("/nowhere")
+        elif kind == "compound":
+            f["volume"] = np.zeros(20, dtype=[("a", "f8"), ("b", "i4")])
+        elif kind == "absurd shape":
+            f.create_dataset("volume", shape=(10**12,), dtype="f8")      # allocated late: a small file
+        elif kind != "group":
+            f["volume"] = volume
+        if kind == "group":
+            f["volume"] = volume
+
+
+@pytest.mark.parametrize("kind,wanted", [("group", "group 'position'"), ("strings", "expected numbers"),
+                                         ("dangling link", "not a readable HDF5 particle file"),
+                                         ("compound", "expected numbers"), ("absurd shape", "shape (1000000000000,)")])
+def test_odd_hdf5_particle_files_are_one_clear_error(tmp_path, kind, wanted):
+    _particle_file(tmp_path / "particles.h5", kind)
+    raw = edited(lambda r: r["bodies"][0].update(geometry={"type": "particles", "file": "particles.h5"}))
+    with pytest.raises(ConfigError) as err:
+        validate(raw, base_dir=str(tmp_path))
+    message = str(err.value)
+    assert "bodies[0].geometry" in message and wanted in message and "\n" not in message, message
