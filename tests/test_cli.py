@@ -275,6 +275,17 @@ def with_file(name, content, option):
     return setup
 
 
+def directory_in_output(name):
+    """Earlier results beside a directory where pimpm writes ``name``, with --overwrite."""
+    def setup(directory):
+        write_yaml(os.path.join(directory, "bad.yaml"), bar(directory="out"))
+        os.makedirs(os.path.join(directory, "out", name))
+        with open(os.path.join(directory, "out", "history.csv"), "w") as f:
+            f.write("step\n1\n")
+        return ["bad.yaml", "--overwrite"]
+    return setup
+
+
 def set_key(path, value):
     """An edit setting cfg[path...] = value (path is a list of keys/indices)."""
     def edit(cfg):
@@ -511,6 +522,9 @@ BAD_INPUTS = {
     "overlapping deformable bodies": (
         None, yaml_case(lambda cfg: cfg["bodies"].insert(1, dict(cfg["bodies"][0], name="twin"))),
         ["bodies[1].geometry", "lie inside body", "overlap"]),
+    # issue 32: --overwrite removed the other results, then could not remove this one
+    "a directory where results.h5 goes, with --overwrite": (
+        None, directory_in_output("results.h5"), ["out/results.h5", "is not a file"]),
     "a link where the XDMF temporary goes": (
         None, link_in_output("particles.xdmf.tmp"), ["particles.xdmf.tmp", "symbolic link"]),
     "--set with a bad value, two ranks": (

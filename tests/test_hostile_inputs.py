@@ -97,6 +97,9 @@ VALUE_CASES = {
                      [f"materials.{MATERIAL}.youngs_modulus = 1e+308", "finite, normal number"]),
     "moduli 1e-300": (lambda r: r["materials"][MATERIAL].update(youngs_modulus=1e-300),
                       [f"materials.{MATERIAL}.youngs_modulus = 1e-300", "finite, normal number"]),
+    # issue 32: the spacing, not the modulus, is what overflows here
+    "grid 1e300 wide": (lambda r: r["grid"].update(upper=[1e300, 1e300]),
+                        ["grid.upper = [1e+300, 1e+300]", "cell size h = 1.42857e+299", "units"]),
 }
 
 

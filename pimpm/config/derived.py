@@ -32,12 +32,18 @@ def check_derived(config):
             speed = math.sqrt(p_wave / rho) if p_wave / rho >= 0 else math.nan
             scale = young * h ** (dim - 1)
         for what, value in (("Young's modulus", young), ("the p-wave modulus K + 4/3 G", p_wave),
-                            ("the wave speed sqrt((K + 4/3 G) / rho)", speed),
-                            ("the residual scale E h^(dim-1)", scale)):
+                            ("the wave speed sqrt((K + 4/3 G) / rho)", speed)):
             if not _normal(value):
                 _fail(f"materials.{name}.{key}", modulus,
                       f"moduli and a density for which {what} is a finite, normal number "
                       f"(it is {value!r})")
+        if not _normal(scale) and _normal(young):
+            # the modulus is fine: the grid spacing is what over- or underflows (issue 32:
+            # this was blamed on youngs_modulus)
+            _fail("grid.upper", grid["upper"],
+                  f"a grid whose cell size h = {h:.6g} gives a finite, normal residual scale "
+                  f"E h^(dim-1) with materials.{name} (E = {young:.6g}: it is {scale!r}); check the units "
+                  f"of grid.lower, grid.upper and grid.cells")
         speeds.append(speed)
     time = config["time"]
     dt = time["dt"]

@@ -19,8 +19,15 @@ def prepare_output_directory(comm, directory, overwrite):
     if comm.rank == 0:
         existing = [f for f in OUTPUT_FILES if os.path.lexists(os.path.join(directory, f))]
         links = [f for f in ALL_NAMES if os.path.islink(os.path.join(directory, f))]
+        # what --overwrite could not remove: refused before anything is removed (issue 32:
+        # a directory named results.h5 came after the other files were gone)
+        odd = [f for f in ALL_NAMES if os.path.lexists(os.path.join(directory, f))
+               and not os.path.islink(os.path.join(directory, f)) and not os.path.isfile(os.path.join(directory, f))]
         if os.path.exists(directory) and not os.path.isdir(directory):
             problem = f"output.directory = {directory!r}: exists and is not a directory"
+        elif odd:
+            problem = (f"output.directory = {directory!r}: {os.path.join(directory, odd[0])!r} is not a "
+                       f"file: expected pimpm's output names to be files it may replace (remove it)")
         elif links:
             problem = (f"output.directory = {directory!r}: {os.path.join(directory, links[0])!r} is a "
                        f"symbolic link: expected pimpm's output files not to be links (pimpm never "
