@@ -116,7 +116,7 @@ def _check_option_values(yaml_options, program_options, prefixes=("", "fallback_
                 value = None
             if value is None or not good(value):
                 where = f"solver.petsc.{full}" if full in yaml_options else f"-{full}"
-                raise ValueError(f"{where} = {text}: expected {what}")
+                raise ValueError(f"{where} = {presets.shown(text)}: expected {what}")
         for name in PYTHON_TYPES:
             full = prefix + name
             if (lookup(prefix + name) or "").strip().lower() == "python":
@@ -178,8 +178,8 @@ def _rejected_option(yaml_options):
             try:
                 snes.setFromOptions()
             except PETSc.Error:
-                shown = f"{where} {value}" if where.startswith("-") else f"{where} = {value!r}"
-                return f"{shown}: rejected by PETSc (expected a value of the type the option takes)"
+                given = f"{where} {presets.shown(value)}" if where.startswith("-") else f"{where} = {value!r}"
+                return f"{given}: rejected by PETSc (expected a value of the type the option takes)"
             finally:
                 snes.destroy()
                 db.delValue(name)
