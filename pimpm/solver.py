@@ -50,6 +50,11 @@ def diagnose_solver_options(config, err):
             f"expected valid option values in solver.petsc and on the command line")
 
 
+def _option_source(name, yaml_options):
+    """How a message names option ``name``: its YAML key if the input gives it, else -name."""
+    return f"solver.petsc.{name}" if name in yaml_options else f"-{name}"
+
+
 def _check_tolerances(snes, yaml_options, ksp=None):
     """PETSc takes negative tolerances and iteration limits; pimpm would then
     report a numerical failure. Refuse them here, naming the option.
@@ -72,8 +77,7 @@ def _check_tolerances(snes, yaml_options, ksp=None):
         else:
             bad, what = not 0.0 <= value < float("inf"), "a finite number >= 0"
         if bad:
-            where = f"solver.petsc.{name}" if name in yaml_options else f"-{name}"
-            raise ValueError(f"{where} = {value:g}: expected {what}")
+            raise ValueError(f"{_option_source(name, yaml_options)} = {value:g}: expected {what}")
 
 
 #: PETSc options whose values PETSc takes but that make a run meaningless or
@@ -115,14 +119,12 @@ def _check_option_values(yaml_options, program_options, prefixes=("", "fallback_
             except (TypeError, ValueError):
                 value = None
             if value is None or not good(value):
-                where = f"solver.petsc.{full}" if full in yaml_options else f"-{full}"
-                raise ValueError(f"{where} = {presets.shown(text)}: expected {what}")
+                raise ValueError(f"{_option_source(full, yaml_options)} = {presets.shown(text)}: expected {what}")
         for name in PYTHON_TYPES:
             full = prefix + name
             if (lookup(prefix + name) or "").strip().lower() == "python":
-                where = f"solver.petsc.{full}" if full in yaml_options else f"-{full}"
-                raise ValueError(f"{where} = python: expected a PETSc type (a python {name[:-5]} needs a "
-                                 f"context that options cannot give)")
+                raise ValueError(f"{_option_source(full, yaml_options)} = python: expected a PETSc type "
+                                 f"(a python {name[:-5]} needs a context that options cannot give)")
 
 
 def _check_factorizations(snes, yaml_options, fallback=None, ksp=None):
@@ -153,8 +155,7 @@ def _check_factorizations(snes, yaml_options, fallback=None, ksp=None):
             ksp.setUp()
         except PETSc.Error:
             name = prefix + "pc_factor_mat_solver_type"
-            where = f"solver.petsc.{name}" if name in yaml_options else f"-{name}"
-            raise ValueError(f"{where} = {package!r}: expected a factorization package PETSc has for "
+            raise ValueError(f"{_option_source(name, yaml_options)} = {package!r}: expected a factorization package PETSc has for "
                              f"-{prefix}pc_type {kind} (mumps; superlu_dist and petsc for lu)") from None
         finally:
             ksp.destroy()

@@ -108,20 +108,26 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     cell_volume_n = np.zeros(n_cells if fbar else 0)
     cell_volume = np.zeros(n_cells if fbar else 0)
     Fb = np.empty((3, 3))
-    if fbar:
+    if fbar:                             # every increment first (kept in F_inc), then the cells' sums
         for p in range(n):
+            _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)
+            for a in range(3):
+                for b in range(3):
+                    F_inc[p, a, b] = Fi[a, b]
             c = fbar_cell[p]
             if c >= 0:
-                _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)
                 cell_volume_n[c] += volume_n[p]
                 cell_volume[c] += volume_n[p] * det3(Fi)
     for p in range(n):
-        _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)
+        if fbar:
+            copy3(F_inc, p, Fi)
+        else:
+            _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)
         J_inc = det3(Fi)                 # full 3x3: thickness (plane stress), hoop (axisymmetric)
         increment_inverts = not (J_inc > 0.0)
         if increment_inverts:
             inverted += 1
-        _copy(Fi, Fb)
+        Fb[:, :] = Fi
         averaged = fbar and fbar_cell[p] >= 0 and not increment_inverts
         if averaged:
             c = fbar_cell[p]
@@ -194,13 +200,6 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
             for k in range(nn):
                 force[node_index[p, k], 0] += h * S[p, k]
     return inverted, unconverged
-
-
-@jit
-def _copy(A, out):
-    for a in range(3):
-        for b in range(3):
-            out[a, b] = A[a, b]
 
 
 @jit
