@@ -25,6 +25,8 @@ def pimpm_option(name, default, kind=None):
 #: -pimpm_* options that are aliases of input keys: option -> (section, key, kind)
 INPUT_ALIASES = {"pimpm_weak_node_fraction": ("grid", "weak_node_fraction", float),
                  "pimpm_free_dofs_only": ("solver", "free_dofs_only", bool),
+                 "pimpm_reuse_factorization": ("solver", "reuse_factorization", bool),
+                 "pimpm_linear_predictor": ("solver", "linear_predictor", bool),
                  "pimpm_balance": ("parallel", "balance", bool),
                  "pimpm_rebalance_threshold": ("parallel", "rebalance_threshold", float)}
 
@@ -39,7 +41,8 @@ def with_command_line(config):
     for option, (section, key, kind) in INPUT_ALIASES.items():
         if not db.hasName(option):
             continue
-        value = pimpm_option(option, config[section][key], kind)
+        default = config[section][key]
+        value = pimpm_option(option, default if isinstance(default, kind) else kind(), kind)
         given = f"-{option} {shown(db.getString(option, ''))}"
         if key == "weak_node_fraction" and not 0.0 <= value < 1.0:
             raise ValueError(f"{given}: expected a number >= 0 and < 1 (0: no extension)")

@@ -106,6 +106,12 @@ class SolverPlan:
     mf_operator: bool
     #: ("petsc", None, None) or ("guilkey_weiss", displacement tolerance, energy tolerance)
     convergence: tuple
+    #: the direct solve on the free dofs factorizes once per step, and GMRES
+    #: preconditioned by that factorization solves the step's later Newton systems
+    reuse_factorization: bool = False
+    #: a step that starts from rest begins Newton at the linearized response to
+    #: its prescribed motion (pimpm.solver.NewtonSolver.linear_predictor)
+    linear_predictor: bool = False
 
 
 def shown(value):
@@ -201,6 +207,8 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
     free_dofs = bool(solver_config.get("free_dofs_only", True) and on_pattern and coo and not use_fallback
                      and not mf_operator and setting("ksp_type") == "preonly"
                      and setting("pc_type") in ("lu", "cholesky"))
+    reuse = _automatic(solver_config.get("reuse_factorization", False), dim) and free_dofs
+    linear_predictor = _automatic(solver_config.get("linear_predictor", False), dim)
     conv = solver_config["convergence"]
     test = _word(command_line, "pimpm_convergence_test", conv["test"])
     # checked whichever test runs: a bad option is bad input even where it is not used
@@ -215,4 +223,17 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
     return SolverPlan(preset=preset, options=options, iterative=is_iterative, matrix_free=is_matrix_free,
                       fallback=use_fallback, free_dofs=free_dofs, symmetric=symmetric and not is_matrix_free,
                       near_null_space=is_iterative and not is_matrix_free, on_pattern=on_pattern,
-                      mf_operator=mf_operator, convergence=convergence)
+                      mf_operator=mf_operator, convergence=convergence, reuse_factorization=reuse,
+                      linear_predictor=linear_predictor)
+
+
+def _automatic(setting, dim):
+    """``solver.reuse_factorization`` and ``solver.linear_predictor``: true,
+    false, or auto, which is on in 3D. Measured on the 0.5 mm 3D upsetting
+    (docs/PERFORMANCE.md, "3D at 0.5 mm"): one factorization per step halves
+    the steps' time, and the linearized start takes the first step through in
+    7 Newton iterations where it needed a cut and 20. In 2D the factorization
+    is cheap (the billet's time is the same either way) and the predictor,
+    which helps there too (billet step 1: 2 iterations instead of 6), is left
+    off so that the documented 2D answers and iteration counts stand."""
+    return dim == 3 if setting == "auto" else bool(setting)

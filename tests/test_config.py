@@ -106,7 +106,8 @@ def test_base_config_normalizes_with_defaults():
     assert cfg["solver"] == {"preset": "mumps", "fallback": True,
                              "convergence": {"test": "petsc", "displacement_tolerance": 1e-6,
                                              "energy_tolerance": 1e-12},
-                             "petsc": {}, "free_dofs_only": True}
+                             "petsc": {}, "free_dofs_only": True, "reuse_factorization": "auto",
+                             "linear_predictor": "auto"}
     assert cfg["output"] == {"directory": "pimpm_output", "every": 1, "checkpoint_every": 0}
     assert list(cfg) == ["title", "dim", "functions", "grid", "kinematics", "materials", "bodies",
                          "loads", "time", "solver", "parallel", "output"]

@@ -92,3 +92,20 @@ def test_convergence_test_and_its_tolerances():
 def test_bad_settings_are_named_with_their_value(command_line, solver, problem, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(")):
         resolve(command_line, problem, **solver)
+
+
+def test_factorization_reuse_and_the_linear_predictor_are_on_in_3d_unless_the_input_says():
+    """``solver.reuse_factorization`` and ``solver.linear_predictor``: auto
+    (the default) is on in 3D and off in 2D; true and false win; a step's
+    factorization is reused only by the direct solve on the free dofs."""
+    auto = {"reuse_factorization": "auto", "linear_predictor": "auto"}
+    plan2, plan3 = resolve(**auto), resolve(problem={"dim": 3}, **auto)
+    assert (plan2.reuse_factorization, plan2.linear_predictor) == (False, False)
+    assert (plan3.reuse_factorization, plan3.linear_predictor) == (True, True)
+    forced = resolve(reuse_factorization=True, linear_predictor=True)
+    assert forced.reuse_factorization and forced.linear_predictor
+    off = resolve(problem={"dim": 3}, reuse_factorization=False, linear_predictor=False)
+    assert not off.reuse_factorization and not off.linear_predictor
+    iterative = resolve({"pimpm_preset": "gmres-gamg"}, problem={"dim": 3}, **auto)
+    assert not iterative.reuse_factorization and iterative.linear_predictor
+    assert not resolve(problem={"dim": 3}, free_dofs_only=False, **auto).reuse_factorization

@@ -316,3 +316,104 @@ def test_ksp_view_options_show_the_ksp_that_solves(tmp_path):
         assert (rows < 0.8 * grid_dofs) if preset == "mumps" else (rows == grid_dofs), rows
         A.destroy()
         viewer.destroy()
+
+
+def upsetting_3d_config(dt, end_time, **solver):
+    """inputs/upsetting_3d.yaml (2 mm cells) with the step and solver changed."""
+    import os
+    import yaml
+    from helpers import ROOT
+    with open(os.path.join(ROOT, "inputs", "upsetting_3d.yaml")) as f:
+        raw = yaml.safe_load(f)
+    raw["time"].update(dt=dt, end_time=end_time)
+    raw["solver"] = dict(raw.get("solver", {}), **solver)
+    return validate(raw)
+
+
+def test_reused_factorization_and_linear_predictor_give_the_same_3d_steps():
+    """The 3D upsetting's first three steps with the 3D defaults (one
+    factorization per step, GMRES on the later Newton systems; the first
+    step started from the linearized response to the platen's motion)
+    against a factorization at every Newton iteration from the plain
+    predictor: the same forces and positions to Newton's tolerance; the
+    reused factorization preconditions GMRES (more than one linear
+    iteration a Newton iteration, not one factorization each); the
+    linearized start begins step 1 much closer to the answer and takes
+    fewer Newton iterations."""
+    fast, fast_infos = run_steps(upsetting_3d_config(2.5e-4, 7.5e-4), 3)
+    plain, plain_infos = run_steps(upsetting_3d_config(2.5e-4, 7.5e-4, reuse_factorization=False,
+                                                       linear_predictor=False), 3)
+    assert fast.solver.plan.reuse_factorization and fast.solver.plan.linear_predictor
+    assert fast.solver.free_dofs.lagged is not None and plain.solver.free_dofs.lagged is None
+    assert "factorized once per step" in fast.solver.describe()
+    for a, b in zip(fast_infos, plain_infos):
+        assert a["dt"] == b["dt"] == 2.5e-4
+        np.testing.assert_allclose(a["forces"]["platen"], b["forces"]["platen"], rtol=1e-7)
+        assert a["linear_iterations"] > a["newton_iterations"]
+        assert b["linear_iterations"] == b["newton_iterations"]
+    np.testing.assert_allclose(fast.particles["x"], plain.particles["x"], rtol=0, atol=1e-8)   # mm
+    assert fast_infos[0]["residual_initial"] < 0.2 * plain_infos[0]["residual_initial"]
+    assert fast_infos[0]["newton_iterations"] < plain_infos[0]["newton_iterations"]
+    for s in (fast, plain):
+        s.solver.destroy()
+
+
+def test_linear_predictor_is_the_answer_of_a_linear_elastic_step():
+    """A platen motion of 1e-6 mm keeps the cylinder linear elastic: the
+    linearized response to it is then the step's answer, so Newton starts
+    from a residual many orders of magnitude below that of the plain
+    predictor (the whole motion in the cells under the platen)."""
+    initial = {}
+    for on in (True, False):
+        sim, infos = run_steps(upsetting_3d_config(1e-9, 1e-9, linear_predictor=on), 1)
+        initial[on] = infos[0]["residual_initial"]
+        sim.solver.destroy()
+    assert initial[True] < 1e-5 * initial[False]
+
+
+def test_lagged_solves_factorize_anew_when_gmres_stalls():
+    """FreeDofsKSP with reuse: the first solve of a step factorizes, the next
+    ones run GMRES preconditioned by that factorization to the true-residual
+    tolerance, and a matrix too far from the factorized one is factorized
+    anew (within LAGGED_MAX_IT iterations or not at all)."""
+    from petsc4py import PETSc
+    from pimpm.linear import LAGGED_RTOL, FreeDofsKSP
+    n = 200
+    rng = np.random.default_rng(3)
+    def matrix(shift, noise):
+        dense = np.diag(np.full(n, 4.0 + shift)) - np.eye(n, k=1) - np.eye(n, k=-1)
+        dense += noise * rng.standard_normal((n, n))
+        A = PETSc.Mat().createDense((n, n), array=dense, comm=PETSc.COMM_SELF)
+        A.assemble()
+        return A, dense
+    A0, _ = matrix(0.0, 0.0)
+    outer = PETSc.KSP().create(comm=PETSc.COMM_SELF)
+    outer.setType(PETSc.KSP.Type.PYTHON)
+    context = FreeDofsKSP(reuse_factorization=True)
+    outer.setPythonContext(context)
+    outer.getPC().setType(PETSc.PC.Type.NONE)
+    context.setFromOptions(outer)
+    context.inner.setType(PETSc.KSP.Type.PREONLY)
+    context.inner.getPC().setType(PETSc.PC.Type.LU)
+    free = np.ones(n, dtype=bool)
+    b = PETSc.Vec().createSeq(n)
+    b.setArray(rng.standard_normal(n))
+    x = b.duplicate()
+    context.set_matrix(A0, free)
+    iterations = []
+    for shift, noise in ((0.0, 0.0), (0.05, 0.002), (0.0, 1.0)):
+        A, dense = matrix(shift, noise)
+        A0.setValues(range(n), range(n), dense.ravel())
+        A0.assemble()
+        outer.setOperators(A0, A0)
+        outer.solve(b, x)
+        assert outer.getConvergedReason() > 0
+        exact = np.linalg.solve(dense, b.getArray())
+        assert np.linalg.norm(x.getArray() - exact) <= 1e3 * LAGGED_RTOL * np.linalg.norm(exact)
+        iterations.append(outer.getIterationNumber())
+        A.destroy()
+    assert iterations[0] == 1 and 1 < iterations[1] < 30      # factorized, then lagged
+    assert context.refactorizations == 1                      # the far matrix: factorized anew
+    context.release()
+    for obj in (outer, A0, b, x):
+        obj.destroy()

@@ -18,7 +18,8 @@ vectors as lists of length ``dim``, and an extra top-level key ``dim`` (2 or 3):
      "time": {"integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
               "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
               "stress_update", "formulation", <the integrator's parameters>},
-     "solver": {"preset", "fallback", "convergence", "petsc": {option: str}, "free_dofs_only"},
+     "solver": {"preset", "fallback", "convergence", "petsc": {option: str}, "free_dofs_only",
+                "reuse_factorization", "linear_predictor"},
      "parallel": {"balance", "rebalance_threshold"},
      "output": {"directory", "every"}}
 

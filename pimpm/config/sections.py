@@ -206,8 +206,18 @@ def _validate_solver(value, path):
         tols[key] = default if v is _MISSING else _positive(v, conv.sub(key))
     free = sec.optional("free_dofs_only")
     free = True if free is _MISSING else _bool(free, sec.sub("free_dofs_only"))
+    # true, false or auto (on in 3D: pimpm.presets.resolve says why)
+    automatic = {}
+    for key in ("reuse_factorization", "linear_predictor"):
+        given = sec.optional(key)
+        if given is _MISSING or given == "auto":
+            automatic[key] = "auto"
+        elif isinstance(given, bool):
+            automatic[key] = given
+        else:
+            _fail(sec.sub(key), given, "true, false or auto")
     return {"preset": preset, "fallback": fallback,
-            "convergence": dict(test=test, **tols), "petsc": petsc, "free_dofs_only": free}
+            "convergence": dict(test=test, **tols), "petsc": petsc, "free_dofs_only": free, **automatic}
 
 
 #: the default rebalance threshold: an implicit repartition makes a new matrix

@@ -29,7 +29,7 @@ def advance(sim, dt):
     t0 = wallclock.perf_counter()
     with log_stage(sim.stages["P2G"]):
         state, cons = prepare(sim, dt)                   # steps 1-2
-    u, info = sim.solver.solve(state, initial_guess(sim, state), sim.step_index + 1)   # steps 3-6
+    u, info = sim.solver.solve(state, lambda: initial_guess(sim, state), sim.step_index + 1)   # steps 3-6
     if not info["converged"]:
         why = (THICKNESS_FAILURE if info["thickness_failed"] else
                "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"])
@@ -124,8 +124,17 @@ def initial_guess(sim, state):
     invert a particle; prescribed values on prescribed dofs; then each
     term's correction (contact tools push the corners it drives into them
     back out: :meth:`pimpm.terms.NodalTerm.predict`), unless it inverts a
-    particle."""
+    particle. Where the predictor moves no free dof (a body at rest), the
+    linearized response to the prescribed motion instead, if the solver
+    makes one (``solver.linear_predictor``; not with contact tools, whose
+    predictor is their own)."""
     guess = np.where(state.fixed, state.fixed_value, state.predictor())
+    if sim.solver.plan.linear_predictor and not any(term.couples_particles for term in sim.terms):
+        moving = np.where(state.fixed, 0.0, guess)
+        if not sim.comm.allreduce(bool(np.any(moving != 0.0))):
+            linear = sim.solver.linear_predictor(state, guess)
+            if linear is not None and not sim.problem.inverts(state, linear):
+                return linear
     if sim.problem.inverts(state, guess):
         guess = np.where(state.fixed, state.fixed_value, 0.0)
     corrected = guess
