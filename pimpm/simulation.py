@@ -82,7 +82,8 @@ class Simulation:
             initial = {}
             for material in self.materials:
                 initial.update(material.model.initial_history())
-            self.particles, self.rigid = seed_bodies(config, self.grid, self.kinematics, densities, initial)
+            self.particles, self.rigid = seed_bodies(config, self.grid, self.kinematics, densities, initial,
+                                                     comm)
             self._check_every_body_has_particles()
             overlap = overlapping_bodies(config, self.particles, self.grid, comm)
             if overlap:
