@@ -647,3 +647,35 @@ def test_method_switches_are_input_keys_and_the_command_line_aliases_are_checked
     finally:
         for option in ("pimpm_weak_node_fraction", "pimpm_balance", "pimpm_rebalance_threshold"):
             db.delValue(option)
+
+
+def test_reuse_factorization_and_linear_predictor_take_true_false_or_auto():
+    """solver.reuse_factorization and solver.linear_predictor: true, false or
+    auto (the default); anything else names the key and what it takes, and
+    their -pimpm_* spellings are read as booleans."""
+    import petsc4py
+    petsc4py.init([])
+    from petsc4py import PETSc
+    from pimpm.options import with_command_line
+    for key in ("reuse_factorization", "linear_predictor"):
+        for value in (True, False, "auto"):
+            raw = base()
+            raw["solver"] = {key: value}
+            assert validate(raw)["solver"][key] == value
+        for value in ("maybe", 1, [True]):
+            raw = base()
+            raw["solver"] = {key: value}
+            with pytest.raises(ConfigError, match=f"solver.{key} = .*expected true, false or auto"):
+                validate(raw)
+    db = PETSc.Options()
+    try:
+        db.setValue("pimpm_linear_predictor", "0")
+        db.setValue("pimpm_reuse_factorization", "true")
+        cfg = with_command_line(validate(base()))
+        assert cfg["solver"]["linear_predictor"] is False and cfg["solver"]["reuse_factorization"] is True
+        db.setValue("pimpm_linear_predictor", "sometimes")
+        with pytest.raises(ValueError, match="-pimpm_linear_predictor sometimes: expected true or false"):
+            with_command_line(validate(base()))
+    finally:
+        db.delValue("pimpm_linear_predictor")
+        db.delValue("pimpm_reuse_factorization")
