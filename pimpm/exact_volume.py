@@ -136,7 +136,6 @@ def exact_measure(geometry, grid_lower, grid_upper, axisymmetric=False):
     for d in axial:
         if axisymmetric and d == 0:
             section *= (upper[0] ** 2 - lower[0] ** 2) / 2.0
-            moment = True
         else:
             section *= upper[d] - lower[d]
     return 2.0 * math.pi * section if axisymmetric else section

@@ -132,11 +132,9 @@ class FreeDofsKSP:
         free mask (the factorization starts afresh: new pattern, new size).
         Only the PC is reset: KSPReset would also drop the viewers that
         -ksp_view and -ksp_view_mat set up."""
-        self.inner.getPC().reset()
+        self.drop_factorization()
         if self.lagged is not None:
-            self.lagged.reset()         # its Krylov vectors have the last step's size
-            self.lagged.setPC(self.inner.getPC())
-        self.factored = False
+            self.lagged.reset()         # its Krylov vectors have the last step's size (the PC stays shared)
         for obj in (self.b, self.x):
             if obj is not None:
                 obj.destroy()

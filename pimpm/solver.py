@@ -122,7 +122,7 @@ def _check_option_values(yaml_options, program_options, prefixes=("", "fallback_
                 raise ValueError(f"{_option_source(full, yaml_options)} = {presets.shown(text)}: expected {what}")
         for name in PYTHON_TYPES:
             full = prefix + name
-            if (lookup(prefix + name) or "").strip().lower() == "python":
+            if (lookup(full) or "").strip().lower() == "python":
                 raise ValueError(f"{_option_source(full, yaml_options)} = python: expected a PETSc type "
                                  f"(a python {name[:-5]} needs a context that options cannot give)")
 
@@ -351,6 +351,14 @@ class NewtonSolver:
             return self.free_dofs.inner
         return self.snes.getKSP()
 
+    def _drop_factorizations(self):
+        """After a PETSc error in a linear solve (e.g. MUMPS on a singular
+        tangent): forget the preconditioners' factors, so that the next
+        solve factorizes afresh."""
+        self.snes.getKSP().getPC().reset()
+        if self.free_dofs is not None:
+            self.free_dofs.drop_factorization()
+
     def linear_predictor(self, state, guess):
         """A better start for a step whose integrator predicts no motion of
         the free dofs (a body at rest when a tool starts to move): the
@@ -395,9 +403,7 @@ class NewtonSolver:
                 solved = ksp.getConvergedReason() > 0
             except PETSc.Error:
                 solved = False
-                self.snes.getKSP().getPC().reset()
-                if self.free_dofs is not None:
-                    self.free_dofs.drop_factorization()
+                self._drop_factorizations()
         out = y.getArray(readonly=True).copy()
         b.destroy()
         y.destroy()
@@ -429,9 +435,7 @@ class NewtonSolver:
                 # singular tangent: a failed step, cut and retried like the
                 # others, after dropping the preconditioner's factors
                 petsc_error = err
-                self.snes.getKSP().getPC().reset()
-                if self.free_dofs is not None:
-                    self.free_dofs.drop_factorization()
+                self._drop_factorizations()
         reason = self.snes.getConvergedReason()
         norms, lits = self.snes.getConvergenceHistory()
         its = self.snes.getIterationNumber()
