@@ -74,7 +74,7 @@ def file_digest(path):
     return h.hexdigest()
 
 
-def _check_file(path):
+def check_file(path):
     if not os.path.exists(path):
         raise GeometryFileError("not found")
     if not os.path.isfile(path):
@@ -83,7 +83,7 @@ def _check_file(path):
         raise GeometryFileError("is not readable")
 
 
-def _cached(kind, path, reader):
+def cached(kind, path, reader):
     st = os.stat(path)
     key = (kind, os.path.realpath(path), st.st_size, st.st_mtime_ns)
     if key not in _CACHE:
@@ -112,19 +112,24 @@ class Mesh:
 def read_mesh(path, dim):
     """The volume elements of the mesh file for a ``dim``-dimensional grid
     (lower-dimensional cells such as boundary lines are ignored)."""
-    _check_file(path)
-    return _cached(("mesh", dim), path, lambda: _read_mesh(path, dim))
+    check_file(path)
+    return cached(("mesh", dim), path, lambda: _read_mesh(path, dim))
 
 
-def _read_mesh(path, dim):
+def meshio_read(path, expected):
+    """meshio's mesh of the file; GeometryFileError naming meshio's reason
+    and the ``expected`` kind of file otherwise."""
     import meshio
     try:
-        mesh = meshio.read(path)
+        return meshio.read(path)
     except (Exception, SystemExit) as err:  # meshio calls sys.exit on some files
         text = str(err).strip().splitlines()
         reason = text[0] if text else type(err).__name__
-        raise GeometryFileError(f"meshio cannot read it ({reason}): expected a volume mesh "
-                                f"file (Gmsh .msh, VTK .vtk/.vtu, Abaqus .inp, ...)") from None
+        raise GeometryFileError(f"meshio cannot read it ({reason}): expected {expected}") from None
+
+
+def _read_mesh(path, dim):
+    mesh = meshio_read(path, "a volume mesh file (Gmsh .msh, VTK .vtk/.vtu, Abaqus .inp, ...)")
     points = np.asarray(mesh.points, dtype=float)
     if points.ndim != 2 or points.shape[0] == 0:
         raise GeometryFileError("has no points: expected a volume mesh")
@@ -397,8 +402,8 @@ def mesh_summary(mesh, n, scale=1.0, offset=0.0):
 
 def read_particle_file(path, dim):
     """(positions (n, dim), volumes (n,)) from a CSV or HDF5 particle file."""
-    _check_file(path)
-    return _cached(("particles", dim), path, lambda: _read_particle_file(path, dim))
+    check_file(path)
+    return cached(("particles", dim), path, lambda: _read_particle_file(path, dim))
 
 
 #: the most particles a particle file may declare (an absurd declared shape is

@@ -10,9 +10,11 @@ import time
 import petsc4py
 
 petsc4py.init(sys.argv[:1])
+import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 from .config import validate  # noqa: E402
+from .kernels import contact  # noqa: E402
 from .kernels.jit import CACHE_DIRECTORY  # noqa: E402
 from .materials import MODELS, REQUIRED  # noqa: E402
 from .simulation import Simulation  # noqa: E402
@@ -59,6 +61,8 @@ def main():
         sim = Simulation(validate(config), MPI.COMM_SELF)
         sim.advance(1.0)
         sim.solver.destroy()
+        contact.point_distances(contact.MESH, np.zeros(contact.MESH_HEADER), np.zeros((0, dim)),
+                                np.zeros(0))                 # a surface tool's seeding (pimpm.surfaces)
         for shape_functions in ("linear", "gimp"):          # the explicit step's kernels
             config = tiny(dim, shape_functions, MATERIALS[0])
             config["time"] = {"integrator": "explicit", "end_time": 1.0}

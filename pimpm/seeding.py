@@ -37,13 +37,20 @@ def _signed_distance_curved(points, geometry):
         return np.sqrt(np.sum((points[:, radial] - c) ** 2, axis=1)) - geometry["radius"]
     if geometry["type"] == "half_space":      # a plane, the normal pointing out of the body
         return (points - np.asarray(geometry["point"])) @ np.asarray(geometry["normal"])
+    if geometry["type"] == "surface":         # a tool's surface mesh (pimpm.surfaces)
+        from .kernels.contact import MESH, point_distances
+        from .surfaces import surface_params
+        out = np.empty(len(points))
+        point_distances(MESH, surface_params(geometry, points.shape[1], 0.0),
+                        np.ascontiguousarray(points, dtype=float), out)
+        return out
     if geometry["type"] == "box":
         return None
     raise ValueError(f"unknown geometry type {geometry['type']!r}")
 
 
 def _bounding_box(geometry):
-    if geometry["type"] in ("box", "cylinder", "half_space"):   # a half-space: the grid's box
+    if geometry["type"] in ("box", "cylinder", "half_space", "surface"):   # a half-space: the grid's box
         return np.asarray(geometry["lower"], float), np.asarray(geometry["upper"], float)
     c, r = np.asarray(geometry["center"], float), float(geometry["radius"])
     return c - r, c + r

@@ -12,17 +12,15 @@ and writes JSON.
                                     [--json docs/data/bench_contact.json]
 """
 import argparse
-import csv
 import json
 import os
 import statistics
-import subprocess
-import sys
 import tempfile
-import time
 
 import h5py
 import numpy as np
+
+from pimpm_runs import run_pimpm
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 VARIANTS = {"bonded": [],
@@ -31,25 +29,8 @@ VARIANTS = {"bonded": [],
             "friction 1": ["bodies[1].contact=friction", "bodies[1].friction_coefficient=1.0"]}
 
 
-def env():
-    e = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-             OMPI_MCA_rmaps_base_oversubscribe="1")
-    e["PYTHONPATH"] = ROOT + os.pathsep + e.get("PYTHONPATH", "")
-    return e
-
-
 def run(overrides, ranks, out):
-    cmd = ["mpiexec", "-n", str(ranks), sys.executable, "-m", "pimpm", os.path.join(ROOT, "inputs", "billet.yaml"),
-           "--output", out, "--overwrite"]
-    for o in overrides:
-        cmd += ["--set", o]
-    start = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env())
-    wall = time.perf_counter() - start
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(cmd)} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
-    with open(os.path.join(out, "history.csv")) as f:
-        rows = list(csv.DictReader(f))
+    wall, rows = run_pimpm(os.path.join(ROOT, "inputs", "billet.yaml"), overrides, ranks, out)
     with h5py.File(os.path.join(out, "results.h5"), "r") as f:
         last = f["steps"][sorted(f["steps"].keys())[-1]]["particles"]
         x = last["position"][:][last["body"][:] == 0]

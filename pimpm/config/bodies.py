@@ -12,7 +12,7 @@ from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _f
     _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _name, _ordered_bounds, _positive, _string)
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
-    CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
+    CONTACT_GEOMETRIES, CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
     MODEL_PARAMETER_KEYS, RIGID_ONLY_GEOMETRIES, DEFAULT_F_BAR)
 
 
@@ -81,15 +81,8 @@ def _validate_file_geometry(sec, gtype, path, dim, base_dir):
     """A mesh or particle file: read, checked, summarized (the particles are
     made by :mod:`pimpm.meshes` at seeding)."""
     from .. import meshes
-    fpath = sec.sub("file")
-    given = _string(sec.required("file", "the path of a mesh file" if gtype == "mesh"
-                                 else "the path of a CSV or HDF5 particle file"), fpath)
-    file = os.path.normpath(os.path.join(base_dir or os.getcwd(), os.path.expanduser(given)))
-    scale = sec.optional("scale")
-    scale = 1.0 if scale is _MISSING else _positive(scale, sec.sub("scale"))
-    offset = sec.optional("offset")
-    offset = [0.0] * dim if offset is _MISSING else _float_vector(offset, sec.sub("offset"), dim)
-    out = {"type": gtype, "file": file, "scale": scale, "offset": offset}
+    fpath, given, out = _geometry_file(sec, gtype, dim, base_dir)
+    file, scale, offset = out["file"], out["scale"], out["offset"]
     try:
         if gtype == "mesh":
             n = sec.optional("particles_per_element")
@@ -125,6 +118,42 @@ def _validate_file_geometry(sec, gtype, path, dim, base_dir):
     return out
 
 
+_FILE_KINDS = {"mesh": "the path of a mesh file", "particles": "the path of a CSV or HDF5 particle file",
+               "surface": "the path of a surface mesh file (lines in 2D, triangles in 3D)"}
+
+
+def _geometry_file(sec, gtype, dim, base_dir):
+    """(key path, the file as given, {type, file (absolute), scale, offset})."""
+    fpath = sec.sub("file")
+    given = _string(sec.required("file", _FILE_KINDS[gtype]), fpath)
+    file = os.path.normpath(os.path.join(base_dir or os.getcwd(), os.path.expanduser(given)))
+    scale = sec.optional("scale")
+    scale = 1.0 if scale is _MISSING else _positive(scale, sec.sub("scale"))
+    offset = sec.optional("offset")
+    offset = [0.0] * dim if offset is _MISSING else _float_vector(offset, sec.sub("offset"), dim)
+    return fpath, given, {"type": gtype, "file": file, "scale": scale, "offset": offset}
+
+
+def _validate_surface_geometry(sec, path, dim, base_dir):
+    """A rigid tool's surface mesh (pimpm.surfaces): read, checked (facets,
+    orientation), summarized; ``flip_normals`` reverses every facet."""
+    from .. import meshes, surfaces
+    fpath, given, out = _geometry_file(sec, "surface", dim, base_dir)
+    flip = sec.optional("flip_normals")
+    out["flip_normals"] = False if flip is _MISSING else _bool(flip, sec.sub("flip_normals"))
+    try:
+        points, facets = surfaces.surface_of(out, dim)
+        surfaces.check_surface(points, facets)
+        out.update(facets=int(len(facets)), sha256=meshes.file_digest(out["file"]),
+                   bounds=[[float(v) for v in points.min(axis=0)], [float(v) for v in points.max(axis=0)]])
+    except meshes.GeometryFileError as err:
+        shown = given if given == out["file"] else f"{given} ({out['file']})"
+        raise ConfigError(f"{fpath} = {shown!r}: {err}", path=fpath) from None
+    except OSError as err:
+        raise ConfigError(f"{fpath} = {given!r}: cannot be read ({err.strerror})", path=fpath) from None
+    return out
+
+
 def _validate_geometry(value, path, dim, base_dir=None):
     if not isinstance(value, Mapping):
         _fail(path, value, f"a mapping with key 'type' ({_choices(GEOMETRY_TYPES)})")
@@ -132,6 +161,8 @@ def _validate_geometry(value, path, dim, base_dir=None):
         _fail_missing(_join(path, "type"), _choices(GEOMETRY_TYPES))
     gtype = _enum(value["type"], _join(path, "type"), GEOMETRY_TYPES)
     sec = _Section(value, path, GEOMETRY_KEYS[gtype])
+    if gtype == "surface":
+        return _validate_surface_geometry(sec, path, dim, base_dir)
     if gtype in FILE_GEOMETRIES:
         return _validate_file_geometry(sec, gtype, path, dim, base_dir)
     if gtype == "half_space":
@@ -176,8 +207,8 @@ def _check_inside_grid(geom, path, grid, dim):
                     f"{path}.file = {geom['file']!r}: the {what} (after scale and offset) spans "
                     f"[{_fmt(lo)}, {_fmt(hi)}] on axis {axis}: expected it to lie within {within}",
                     path=f"{path}.file")
-        elif geom["type"] == "half_space":
-            continue                    # clipped to the grid (bodies: lower/upper set to the grid's)
+        elif geom["type"] in ("half_space", "surface"):
+            continue                    # clipped to the grid (bodies: lower/upper set within the grid's)
         elif geom["type"] in ("box", "cylinder"):
             if geom["lower"][i] < glo[i] - tol:
                 _fail(f"{path}.lower[{i}]", geom["lower"][i],
@@ -218,9 +249,14 @@ def _validate_body(value, path, dim, materials, grid, functions=None, base_dir=N
     _check_inside_grid(geometry, sec.sub("geometry"), grid, dim)
     if geometry["type"] in RIGID_ONLY_GEOMETRIES:
         if not rigid:
-            _fail(sec.sub("geometry.type"), geometry["type"], "a half_space only on a rigid body "
+            _fail(sec.sub("geometry.type"), geometry["type"], f"a {geometry['type']} only on a rigid body "
                   "(rigid: true): a deformable body needs a bounded region")
         geometry["lower"], geometry["upper"] = list(grid["lower"]), list(grid["upper"])
+        if geometry["type"] == "surface":       # its particles (for show): inside it, within a cell of it
+            spacing = [(u - lo) / n for lo, u, n in zip(grid["lower"], grid["upper"], grid["cells"])]
+            low, high = geometry.pop("bounds")
+            geometry["lower"] = [max(g, v - h) for g, v, h in zip(grid["lower"], low, spacing)]
+            geometry["upper"] = [min(g, v + h) for g, v, h in zip(grid["upper"], high, spacing)]
 
     ppc_path = sec.sub("particles_per_cell")
     ppc = sec.optional("particles_per_cell")
@@ -273,6 +309,9 @@ def _validate_body(value, path, dim, materials, grid, functions=None, base_dir=N
             constrain = [a for a in axes if a in seen]
 
     contact = _validate_contact(sec, rigid, constrain, dim)
+    if contact.get("contact", "bonded") != "bonded" and geometry["type"] not in CONTACT_GEOMETRIES:
+        _fail(sec.sub("contact"), contact["contact"], f"bonded with a {geometry['type']} geometry (a "
+              f"contact law needs the tool's surface: {', '.join(CONTACT_GEOMETRIES)})")
     return {"name": name, "material": material, "rigid": rigid, "geometry": geometry,
             "particles_per_cell": ppc, "velocity": velocity, "function": function,
             "constrain": constrain, **contact}

@@ -16,9 +16,12 @@ BOUNDARY_TYPES = ("free", "fixed", "roller", "symmetry")
 BOUNDARY_ALIASES = {"symmetry": "roller"}
 KINEMATICS = {2: tuple(k for k in _KINEMATICS_REGISTRY if k != "3d"), 3: ("3d",)}
 MATERIAL_MODELS = tuple(MODELS)
-GEOMETRY_TYPES = ("box", "ball", "cylinder", "half_space", "mesh", "particles")
-#: geometries only a rigid body may have (a half-space is clipped to the grid)
-RIGID_ONLY_GEOMETRIES = ("half_space",)
+GEOMETRY_TYPES = ("box", "ball", "cylinder", "half_space", "mesh", "particles", "surface")
+#: geometries only a rigid body may have (a half-space is clipped to the grid; a
+#: surface mesh, pimpm.surfaces, bounds no volume of its own)
+RIGID_ONLY_GEOMETRIES = ("half_space", "surface")
+#: geometries a contact law (frictionless, friction) can meet: those with a surface
+CONTACT_GEOMETRIES = ("box", "ball", "cylinder", "half_space", "mesh", "surface")
 FILE_GEOMETRIES = ("mesh", "particles")
 DEFAULT_PARTICLES_PER_ELEMENT = 2
 INTEGRATORS = tuple(_INTEGRATOR_REGISTRY)
@@ -58,6 +61,7 @@ GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "
                  "cylinder": ("type", "lower", "upper", "axis", "center", "radius"),
                  "half_space": ("type", "point", "normal"),
                  "mesh": ("type", "file", "particles_per_element", "scale", "offset"),
+                 "surface": ("type", "file", "scale", "offset", "flip_normals"),
                  "particles": ("type", "file", "scale", "offset")}
 #: the most step cuts a step may take (time.max_cuts; each halves the step)
 MAX_CUTS = 50

@@ -25,7 +25,18 @@ import numpy as np
 from .jit import jit, jit_inline
 from .particle_step import _add_group
 
-HALF_SPACE, BOX, BALL, CYLINDER = 0, 1, 2, 3
+HALF_SPACE, BOX, BALL, CYLINDER, MESH = 0, 1, 2, 3, 4
+#: a MESH tool's params: the 12 common ones, then (facets, vertices per facet,
+#: record length, where the hierarchy starts), then one record per facet
+#: (:func:`pimpm.surfaces.pack`): its vertices (3 per vertex), unit normal (3),
+#: bounding box (lower 3, upper 3), vertex pseudo-normals (3 per vertex) and,
+#: for triangles, edge pseudo-normals (3 per edge: 0-1, 1-2, 2-0); then the
+#: bounding-volume hierarchy of the facets, NODE numbers per node: its box
+#: (lower 3, upper 3), its children (-1: a leaf) and its facets (first, count)
+MESH_HEADER = 16
+NODE = 10
+#: the nearest feature of a facet: its interior, a vertex (VERTEX + i), an edge (EDGE + i)
+INTERIOR, VERTEX, EDGE = 0, 1, 4
 #: a point's state; HELD: open, but in contact at the end of the last step and
 #: within ``stick`` of the tool (the first Newton iteration keeps its stiffness)
 OPEN, STICK, SLIP, HELD = 0, 1, 2, 3
@@ -41,13 +52,221 @@ def _radial_hessian(H, e, d, axes_mask, dim):
 
 
 @jit
+def _segment_nearest(params, base, y, q):
+    """The point ``q`` of segment ``base`` (2D) nearest to ``y``; returns
+    (squared distance, feature)."""
+    ax, ay = params[base], params[base + 1]
+    tx, ty = params[base + 3] - ax, params[base + 4] - ay
+    length2 = tx * tx + ty * ty
+    s = ((y[0] - ax) * tx + (y[1] - ay) * ty) / length2 if length2 > 0.0 else 0.0
+    feature = INTERIOR
+    if s <= 0.0:
+        s, feature = 0.0, VERTEX
+    elif s >= 1.0:
+        s, feature = 1.0, VERTEX + 1
+    q[0], q[1] = ax + s * tx, ay + s * ty
+    return (y[0] - q[0]) ** 2 + (y[1] - q[1]) ** 2, feature
+
+
+@jit
+def _triangle_nearest(params, base, y, q):
+    """The point ``q`` of triangle ``base`` nearest to ``y`` (Ericson,
+    Real-Time Collision Detection 5.1.5, by Voronoi regions); returns
+    (squared distance, feature)."""
+    ab = np.empty(3)
+    ac = np.empty(3)
+    d1 = d2 = d3 = d4 = d5 = d6 = 0.0
+    for a in range(3):
+        A, B, C = params[base + a], params[base + 3 + a], params[base + 6 + a]
+        ab[a], ac[a] = B - A, C - A
+        d1 += ab[a] * (y[a] - A)
+        d2 += ac[a] * (y[a] - A)
+        d3 += ab[a] * (y[a] - B)
+        d4 += ac[a] * (y[a] - B)
+        d5 += ab[a] * (y[a] - C)
+        d6 += ac[a] * (y[a] - C)
+    vc = d1 * d4 - d3 * d2
+    vb = d5 * d2 - d1 * d6
+    va = d3 * d6 - d5 * d4
+    origin, s, t, feature = 0, 0.0, 0.0, INTERIOR     # q = vertex origin + s ab + t ac
+    if d1 <= 0.0 and d2 <= 0.0:
+        feature = VERTEX
+    elif d3 >= 0.0 and d4 <= d3:
+        origin, feature = 1, VERTEX + 1
+    elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        s, feature = d1 / (d1 - d3), EDGE
+    elif d6 >= 0.0 and d5 <= d6:
+        origin, feature = 2, VERTEX + 2
+    elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        t, feature = d2 / (d2 - d6), EDGE + 2
+    elif va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        s, t, feature = 1.0 - w, w, EDGE + 1
+    else:
+        scale = 1.0 / (va + vb + vc)
+        s, t = vb * scale, vc * scale
+    d2sum = 0.0
+    for a in range(3):
+        if origin == 0:
+            q[a] = params[base + a] + s * ab[a] + t * ac[a]
+        else:
+            q[a] = params[base + 3 * origin + a]
+        d2sum += (y[a] - q[a]) ** 2
+    return d2sum, feature
+
+
+@jit
+def _facet_nearest(params, r, y, dim, q):
+    """(squared distance, feature) of facet ``r``'s point ``q`` nearest to ``y``."""
+    base = MESH_HEADER + r * int(params[14])
+    if dim == 2:
+        return _segment_nearest(params, base, y, q)
+    return _triangle_nearest(params, base, y, q)
+
+
+@jit
+def _mesh_nearest(params, y, dim, q, facing=-1):
+    """The facet nearest to ``y``, its nearest point ``q`` and feature: a
+    walk down the facets' bounding-volume hierarchy (:func:`pimpm.surfaces.pack`),
+    the nearer child first, skipping every box farther than the best facet
+    so far. ``facing`` >= 0: only the facets whose normal points within 90
+    degrees of that facet's (-1 and no point: there are none)."""
+    length = int(params[14])
+    tree = int(params[15])
+    normal = 3 * int(params[13])
+    facing_normal = MESH_HEADER + max(facing, 0) * length + normal
+    best, best_d2, best_feature = -1, np.inf, INTERIOR
+    trial = np.empty(3)
+    stack = np.empty(128, dtype=np.int64)
+    top = 0
+    stack[0] = 0
+    while top >= 0:
+        node = tree + NODE * stack[top]
+        top -= 1
+        if _box_distance2(params, node, y, dim) >= best_d2:
+            continue
+        left = int(params[node + 6])
+        if left < 0:                          # a leaf: its facets
+            first = int(params[node + 8])
+            for r in range(first, first + int(params[node + 9])):
+                if facing >= 0:
+                    alignment = 0.0
+                    for a in range(dim):
+                        alignment += params[MESH_HEADER + r * length + normal + a] * params[facing_normal + a]
+                    if not alignment > 0.0:
+                        continue
+                d2, feature = _facet_nearest(params, r, y, dim, trial)
+                if d2 < best_d2:
+                    best, best_d2, best_feature = r, d2, feature
+                    for a in range(dim):
+                        q[a] = trial[a]
+            continue
+        right = int(params[node + 7])
+        d_left = _box_distance2(params, tree + NODE * left, y, dim)
+        d_right = _box_distance2(params, tree + NODE * right, y, dim)
+        near, far, d_far = (left, right, d_right) if d_left <= d_right else (right, left, d_left)
+        if d_far < best_d2:
+            top += 1
+            stack[top] = far
+        top += 1
+        stack[top] = near
+    return best, best_d2, best_feature
+
+
+@jit_inline
+def _box_distance2(params, node, y, dim):
+    """Squared distance of ``y`` from the box of the hierarchy's node at ``node``."""
+    gap2 = 0.0
+    for a in range(dim):
+        below = params[node + a] - y[a]
+        above = y[a] - params[node + 3 + a]
+        if below > 0.0:
+            gap2 += below * below
+        elif above > 0.0:
+            gap2 += above * above
+    return gap2
+
+
+@jit
+def _mesh_distance(params, y, dim, n, H, face):
+    """Signed distance of ``y`` from a surface mesh (facets oriented with
+    outward normals): the nearest point's distance, signed by the pseudo-normal
+    of its feature (the facet's normal inside a facet, the angle-weighted mean
+    of the facets' normals at a vertex, the mean of the two at an edge:
+    Baerentzen & Aanaes 2005, exact for closed manifold surfaces), with its
+    gradient and Hessian: zero inside a facet, (P - n n^T (- t t^T along an
+    edge t)) / phi about an edge or vertex (but over a facet's plane to within
+    a millionth of ``params[11]``: the joint of coplanar facets is flat).
+    ``face`` >= 0: the facet the
+    point's particle meets the tool through (:func:`contact_faces`): where
+    the point lies over (within ``params[11]`` of) the nearest of the facets
+    that face the same way, the distance from that facet's plane (a corner
+    that has crossed a thin platen's bottom surface deeper than half its
+    thickness, or beside its side, still belongs to the bottom, as with a
+    box's face)."""
+    k, length = int(params[13]), int(params[14])
+    q = np.empty(3)
+    if face >= 0:                             # the nearest facet that faces the way ``face`` does
+        r, d2, _ = _mesh_nearest(params, y, dim, q, int(face))
+        base = MESH_HEADER + r * length
+        phi = 0.0
+        for a in range(dim):
+            phi += (y[a] - params[base + a]) * params[base + 3 * k + a]
+        if d2 - phi * phi <= params[11] * params[11]:      # over it (widened by params[11])
+            for a in range(dim):
+                n[a] = params[base + 3 * k + a]
+            return phi
+    r, d2, feature = _mesh_nearest(params, y, dim, q)
+    base = MESH_HEADER + r * length
+    side = 0.0                                # the distance from the facet's plane
+    for a in range(dim):
+        side += (y[a] - params[base + a]) * params[base + 3 * k + a]
+    # inside the facet, or over its edge or vertex within a millionth of params[11]
+    # (a point over the joint of two coplanar facets is over a flat surface: no curvature)
+    if feature == INTERIOR or d2 - side * side <= (1e-6 * params[11]) ** 2:
+        for a in range(dim):
+            n[a] = params[base + 3 * k + a]
+        return side
+    if feature >= EDGE:
+        pseudo = base + 6 * k + 9 + 3 * (feature - EDGE)
+    else:
+        pseudo = base + 3 * k + 9 + 3 * (feature - VERTEX)
+    d = np.sqrt(d2)
+    if d == 0.0:                              # on the surface at an edge or vertex
+        for a in range(dim):
+            n[a] = params[pseudo + a]
+        return 0.0
+    side = 0.0
+    for a in range(dim):
+        side += (y[a] - q[a]) * params[pseudo + a]
+    phi = d if side >= 0.0 else -d
+    for a in range(dim):
+        n[a] = (y[a] - q[a]) / phi
+    for a in range(dim):
+        for b in range(dim):
+            H[a, b] = ((1.0 if a == b else 0.0) - n[a] * n[b]) / phi
+    if feature >= EDGE:                       # no curvature along the edge
+        i = feature - EDGE
+        j = (i + 1) % 3
+        t = np.empty(3)
+        norm2 = 0.0
+        for a in range(3):
+            t[a] = params[base + 3 * j + a] - params[base + 3 * i + a]
+            norm2 += t[a] * t[a]
+        for a in range(3):
+            for b in range(3):
+                H[a, b] -= t[a] * t[b] / (norm2 * phi)
+    return phi
+
+
+@jit
 def tool_distance(kind, params, y, dim, n, H, face=-1):
     """Signed distance of ``y`` from the tool's surface (positive outside),
     its gradient ``n`` (the outward unit normal of the nearest surface
     point) and its Hessian ``H`` (zero on flat faces), for the tool at rest
     (``y``: the point minus the tool's displacement).
 
-    ``face`` (boxes and cylinders; -1: none): the face the point meets the
+    ``face`` (boxes, cylinders and meshes; -1: none): the face the point meets the
     tool through (:func:`contact_faces`). Inside a box the nearest face is
     not always that one: a corner that has just crossed the bottom face
     beside the box's side face (a platen as wide as the body, its side on
@@ -60,6 +279,8 @@ def tool_distance(kind, params, y, dim, n, H, face=-1):
         n[a] = 0.0
         for b in range(dim):
             H[a, b] = 0.0
+    if kind == MESH:
+        return _mesh_distance(params, y, dim, n, H, face)
     if face >= 0 and kind == BOX:             # face = 2 axis + (1 on the upper side)
         normal_axis = int(face) // 2
         within = True
@@ -200,14 +421,29 @@ def tool_distance(kind, params, y, dim, n, H, face=-1):
 
 @jit
 def contact_faces(kind, params, x, offset_end, faces):
-    """The face each particle meets a box or cylinder tool through: the one
+    """The face each particle meets a box, cylinder or mesh tool through: the one
     its centre ``x`` lies beyond, and only beyond (the tool displaced by
     ``offset_end``: where it is at the start of the step); -1 where the centre lies beyond an edge or inside
-    (then the nearest point of the tool counts), and for other tools."""
+    (then the nearest point of the tool counts), and for other tools. A
+    mesh's face: the facet nearest to the centre, if the centre lies outside
+    the tool and its nearest point is inside that facet."""
     n_particles, dim = x.shape
+    y_mesh = np.empty(3)
+    q = np.empty(3)
     for p in range(n_particles):
         faces[p] = -1
-        if kind == BOX:
+        if kind == MESH:
+            for a in range(dim):
+                y_mesh[a] = x[p, a] - offset_end[a]
+            r, d2, _ = _mesh_nearest(params, y_mesh, dim, q)
+            base = MESH_HEADER + r * int(params[14])
+            side = 0.0                        # the distance from the facet's plane
+            for a in range(dim):
+                side += (y_mesh[a] - params[base + a]) * params[base + 3 * int(params[13]) + a]
+            # outside, and above the facet (its interior, or an edge with a coplanar neighbour)
+            if side > 0.0 and d2 - side * side <= params[11] * params[11]:
+                faces[p] = r
+        elif kind == BOX:
             beyond = 0
             for a in range(dim):
                 y = x[p, a] - offset_end[a]
@@ -586,4 +822,17 @@ def particle_distances(kind, params, node_index, S, x, u_local, offset, out):
             for k in range(nn):
                 du += S[p, k] * u_local[node_index[p, k], a]
             y[a] = x[p, a] + du - offset[a]
+        out[p] = tool_distance(kind, params, y, dim, n, H)
+
+
+@jit
+def point_distances(kind, params, points, out):
+    """The signed distance of each point (n, dim) from the tool at rest."""
+    dim = points.shape[1]
+    y = np.zeros(3)
+    n = np.empty(3)
+    H = np.empty((3, 3))
+    for p in range(points.shape[0]):
+        for a in range(dim):
+            y[a] = points[p, a]
         out[p] = tool_distance(kind, params, y, dim, n, H)

@@ -6,7 +6,9 @@ withdraws. Inside Newton, with the exact tangent.
 
 Contact is found at the body's true surface: the corners of the particles'
 domains, moved by the particles' own interpolation, against the tool's
-exact geometry (a signed distance: box, ball, cylinder, half-space). The
+exact geometry (a signed distance: box, ball, cylinder, half-space, or
+the facets of a surface mesh or of a rigid volume mesh's boundary:
+:mod:`pimpm.surfaces`). The
 normal condition is a penalty p = -k_n phi with k_n = contact_stiffness x
 (largest P-wave modulus) / h, so the tool penetrates the body by p h /
 (contact_stiffness M): 1/contact_stiffness of a cell at a pressure equal
@@ -19,6 +21,7 @@ time; its own particles only show it (they prescribe nothing)."""
 import numpy as np
 from mpi4py import MPI
 
+from .. import surfaces
 from ..errors import StepFailed
 from ..functions import ONE, lookup
 from ..kernels import contact as kernels
@@ -36,6 +39,8 @@ def geometry_code(geometry, dim, h):
     params = np.zeros(12)
     params[11] = 1e-3 * h          # how far beyond a face's edge a point still meets the face
     kind = geometry["type"]
+    if kind in ("surface", "mesh"):             # the facets of a surface mesh or a mesh's boundary
+        return kernels.MESH, surfaces.surface_params(geometry, dim, params[11])
     if kind == "half_space":
         params[:dim] = geometry["point"]
         params[3:3 + dim] = geometry["normal"]

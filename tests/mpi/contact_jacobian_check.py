@@ -8,8 +8,8 @@ the cap on the tangential stiffness, so that every sticking corner's
 stiffness is mu p / stick; by default most pressing corners are capped).
 
 A block under gravity is pressed by a tool (LAW: frictionless or friction;
-GEOMETRY: box, ball or half_space, the half-space inclined and moving
-sideways too) for two steps (without friction), then with friction and a
+GEOMETRY: box, ball, half_space or surface (the ball as a polygon or
+polyhedron), the half-space inclined and moving sideways too) for two steps (without friction), then with friction and a
 random elastic slip carried in from the last step; at the next step's
 Newton guess the assembled tangent (COO, all ranks' shares summed) is
 compared with central differences of the residual over the free dofs, and
@@ -49,6 +49,14 @@ tools = {
     "half_space": {"type": "half_space", "point": [0.25] + [0.0] * (dim - 2) + [1.0],
                    "normal": [0.3] + [0.0] * (dim - 2) + [-1.0]},
 }
+if geometry == "surface":      # the ball as a surface mesh (pimpm.surfaces): faces, edges and vertices
+    import os
+    import tempfile
+    from surface_shapes import ball_polygon, ball_polyhedron, write_surface  # noqa: E402 (tests/mpi/)
+    polygon = ball_polygon if dim == 2 else ball_polyhedron
+    path = os.path.join(tempfile.mkdtemp(), "ball.vtk")
+    write_surface(path, *polygon(tools["ball"]["center"], tools["ball"]["radius"], 40 if dim == 2 else 3))
+    tools["surface"] = {"type": "surface", "file": path}
 # the inclined half-space also moves sideways (its corners slip), the others straight down
 # (its corners slip), the others slowly straight down (most of theirs stick)
 sideways, down = (0.3, -1.0) if geometry == "half_space" else (0.0, -0.05)
