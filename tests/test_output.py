@@ -123,6 +123,27 @@ def test_serial_zero_particles_append_and_overwrite(comm, tmp_path):
         ResultWriter(comm, str(tmp_path), 2, (0.0, 0.0), (1.0, 1.0), (5, 3), append=True)
 
 
+def test_serial_xdmf_is_built_once_per_step_and_follows_a_rewritten_step(comm, tmp_path):
+    """The XDMF files keep each step's XML (pimpm.io.xdmf.XdmfFiles): a step
+    written again within the same run (a retried step) shows its new
+    particles, and the files equal what a fresh writer makes of results.h5."""
+    from pimpm.io import ResultWriter
+
+    nodes = (4, 3)
+    box = ((0, 0), nodes)
+    with ResultWriter(comm, str(tmp_path), 2, (0.0, 0.0), (1.0, 1.0), nodes) as w:
+        for step in range(3):
+            w.write_step(step, 0.5 * step, _particles(3), _grid(nodes, 1.0), box)
+        w.write_step(2, 1.0, _particles(4), _grid(nodes, 2.0), box)
+        kept = (tmp_path / "particles.xdmf").read_text(), (tmp_path / "grid.xdmf").read_text()
+    root = ET.parse(tmp_path / "particles.xdmf").getroot()
+    assert [int(g.find("Topology").get("NumberOfElements"))
+            for g in root.find("Domain/Grid").findall("Grid")] == [3, 3, 4]
+    with ResultWriter(comm, str(tmp_path), 2, (0.0, 0.0), (1.0, 1.0), nodes, append=True) as w:
+        w.write_step(2, 1.0, _particles(4), _grid(nodes, 2.0), box)       # rebuilt from the file
+    assert ((tmp_path / "particles.xdmf").read_text(), (tmp_path / "grid.xdmf").read_text()) == kept
+
+
 @pytest.mark.parametrize("case", ["length", "no_position", "box_shape", "not_tiling", "dtype"])
 def test_serial_bad_input_raises_and_writer_survives(comm, tmp_path, case):
     from pimpm.io import ResultWriter

@@ -23,7 +23,7 @@ from ..errors import OutputFailed
 from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF, POLYVERTEX, _attr_str, _ordered, _to_file_components
 from .plan import StepPlanner, plan_bytes
 from .space import check_room
-from .xdmf import write_xdmf
+from .xdmf import XdmfFiles
 
 __all__ = ["ResultWriter", "H5_NAME", "PARTICLES_XDMF", "GRID_XDMF"]
 
@@ -115,6 +115,7 @@ class ResultWriter:
         self.path = os.path.join(self.directory, H5_NAME)
         self._file = None
         self._records = {}  # step -> description used to write the XDMF files
+        self._xdmf = None   # rank 0's XdmfFiles (each step's XML kept)
 
         # Agree on the grid description (rank 0's values) before touching the file.
         errors = []
@@ -311,8 +312,9 @@ class ResultWriter:
         err = None
         if self.rank == 0:
             try:
-                write_xdmf(self.directory, self._records, self.dim, self.nodes, self.lower,
-                           self.spacing)
+                if self._xdmf is None:
+                    self._xdmf = XdmfFiles(self.directory, self.dim, self.nodes, self.lower, self.spacing)
+                self._xdmf.write(self._records)
             except Exception as exc:  # noqa: BLE001 - re-raised collectively below
                 err = "%s: %s" % (type(exc).__name__, exc)
         if self.size > 1:
