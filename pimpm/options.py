@@ -27,6 +27,7 @@ INPUT_ALIASES = {"pimpm_weak_node_fraction": ("grid", "weak_node_fraction", floa
                  "pimpm_free_dofs_only": ("solver", "free_dofs_only", bool),
                  "pimpm_reuse_factorization": ("solver", "reuse_factorization", bool),
                  "pimpm_linear_predictor": ("solver", "linear_predictor", bool),
+                 "pimpm_fallback_max_dofs": ("solver", "fallback_max_dofs", int),
                  "pimpm_balance": ("parallel", "balance", bool),
                  "pimpm_rebalance_threshold": ("parallel", "rebalance_threshold", float)}
 
@@ -46,6 +47,8 @@ def with_command_line(config):
         given = f"-{option} {shown(db.getString(option, ''))}"
         if key == "weak_node_fraction" and not 0.0 <= value < 1.0:
             raise ValueError(f"{given}: expected a number >= 0 and < 1 (0: no extension)")
+        if key == "fallback_max_dofs" and not value >= 1:
+            raise ValueError(f"{given}: expected an integer >= 1")
         if key == "rebalance_threshold" and not value >= 1.0:
             raise ValueError(f"{given}: expected a number >= 1")
         out[section] = dict(out[section], **{key: value})

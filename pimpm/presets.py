@@ -38,6 +38,13 @@ PRESETS = {
                     "ksp_gmres_restart": "200", "ksp_max_it": "5000"},
 }
 
+#: the most free dofs the direct fallback factorizes, by dimension (``auto``):
+#: a 3D factorization's work grows as the square of its unknowns (nested
+#: dissection): the 0.5 mm 3D upsetting's 26,600 free dofs take 2.2 s
+#: (docs/PERFORMANCE.md, "3D at 0.5 mm"), so by that rule 100,000 take about
+#: half a minute, longer than a step of the iterative solver there; 2D work
+#: grows as the 1.5 power, and its cap only guards against absurd sizes
+FALLBACK_MAX_DOFS = {2: 2_000_000, 3: 100_000}
 #: the direct solver used when the iterative one fails (prefix "fallback_")
 FALLBACK_OPTIONS = {"fallback_ksp_type": "preonly", "fallback_pc_type": "lu",
                     "fallback_pc_factor_mat_solver_type": "mumps"}
@@ -112,6 +119,8 @@ class SolverPlan:
     #: a step that starts from rest begins Newton at the linearized response to
     #: its prescribed motion (pimpm.solver.NewtonSolver.linear_predictor)
     linear_predictor: bool = False
+    #: the direct fallback factorizes at most this many free dofs (FallbackKSP)
+    fallback_max_dofs: int = None
 
 
 def shown(value):
@@ -220,11 +229,14 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
         convergence = (test, None, None)
     else:
         raise ValueError(f"-pimpm_convergence_test {shown(test)}: expected petsc or guilkey_weiss")
+    max_dofs = solver_config.get("fallback_max_dofs", "auto")
+    if max_dofs == "auto":
+        max_dofs = FALLBACK_MAX_DOFS[dim]
     return SolverPlan(preset=preset, options=options, iterative=is_iterative, matrix_free=is_matrix_free,
                       fallback=use_fallback, free_dofs=free_dofs, symmetric=symmetric and not is_matrix_free,
                       near_null_space=is_iterative and not is_matrix_free, on_pattern=on_pattern,
                       mf_operator=mf_operator, convergence=convergence, reuse_factorization=reuse,
-                      linear_predictor=linear_predictor)
+                      linear_predictor=linear_predictor, fallback_max_dofs=max_dofs)
 
 
 def _automatic(setting, dim):

@@ -239,7 +239,7 @@ class NewtonSolver:
             # the whole matrix (ILU, or ICC when symmetric) at every Newton iteration
             ksp.getPC().setType(PETSc.PC.Type.NONE)
             if use_fallback:
-                self.fallback = FallbackKSP()
+                self.fallback = FallbackKSP(max_free_dofs=plan.fallback_max_dofs)
                 ksp.setPythonContext(self.fallback)
             else:
                 self.free_dofs = FreeDofsKSP(reuse_factorization=plan.reuse_factorization)
@@ -277,6 +277,8 @@ class NewtonSolver:
         from a checkpoint must repeat the uninterrupted one bit for bit.
         Collective."""
         self.problem.begin(state, step)
+        if self.fallback is not None:
+            self.fallback.set_free(~state.fixed)
         if not self.on_pattern:
             return
         J = self.problem.create_jacobian(False, state.pattern)
@@ -422,6 +424,7 @@ class NewtonSolver:
         if callable(initial_guess):
             initial_guess = initial_guess()
         fallbacks_before = self.fallback.fallbacks if self.fallback else 0
+        skipped_before = self.fallback.skipped if self.fallback else 0
         self.X.getArray()[:] = initial_guess
         self.snes.setConvergenceHistory(length=1000, reset=True)
         petsc_error = None
@@ -446,10 +449,14 @@ class NewtonSolver:
         extra = -1 if self._mf_operator() else problem.residual_evaluations - 1 - its
         if petsc_error is not None:
             reason = min(int(reason), -1)
+        reason_name = (_reason_name(reason) if petsc_error is None else
+                       f"PETSc error {petsc_error.ierr} in the linear solve (singular tangent?)")
+        if self.fallback is not None and self.fallback.skipped > skipped_before:
+            reason_name += (f" (the iterative solver failed; the direct fallback was not tried: more "
+                            f"than solver.fallback_max_dofs = {self.fallback.max_free_dofs} free dofs)")
         info = {
             "reason": int(reason),
-            "reason_name": (_reason_name(reason) if petsc_error is None else
-                            f"PETSc error {petsc_error.ierr} in the linear solve (singular tangent?)"),
+            "reason_name": reason_name,
             "converged": reason > 0 and petsc_error is None,
             "newton_iterations": its,
             "linear_iterations": linear,

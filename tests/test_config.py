@@ -103,7 +103,7 @@ def test_base_config_normalizes_with_defaults():
                            "max_cuts": 4, "easy_newton_iterations": 6,
                            "max_particle_displacement": None, "cfl": 0.5, "stress_update": "musl",
                            "formulation": "velocity"}
-    assert cfg["solver"] == {"preset": "mumps", "fallback": True,
+    assert cfg["solver"] == {"preset": "mumps", "fallback": True, "fallback_max_dofs": "auto",
                              "convergence": {"test": "petsc", "displacement_tolerance": 1e-6,
                                              "energy_tolerance": 1e-12},
                              "petsc": {}, "free_dofs_only": True, "reuse_factorization": "auto",
@@ -679,3 +679,31 @@ def test_reuse_factorization_and_linear_predictor_take_true_false_or_auto():
     finally:
         db.delValue("pimpm_linear_predictor")
         db.delValue("pimpm_reuse_factorization")
+
+
+def test_fallback_max_dofs_takes_a_positive_integer_or_auto():
+    """solver.fallback_max_dofs: an integer >= 1 or auto (the default); its
+    -pimpm_fallback_max_dofs spelling is an integer >= 1."""
+    import petsc4py
+    petsc4py.init([])
+    from petsc4py import PETSc
+    from pimpm.options import with_command_line
+    for value in (1, 50000, "auto"):
+        raw = base()
+        raw["solver"] = {"fallback_max_dofs": value}
+        assert validate(raw)["solver"]["fallback_max_dofs"] == value
+    for value in (0, -3, 2.5, "many", True, [10]):
+        raw = base()
+        raw["solver"] = {"fallback_max_dofs": value}
+        with pytest.raises(ConfigError, match="solver.fallback_max_dofs = .*expected an integer >= 1 or auto"):
+            validate(raw)
+    db = PETSc.Options()
+    try:
+        db.setValue("pimpm_fallback_max_dofs", "1000")
+        assert with_command_line(validate(base()))["solver"]["fallback_max_dofs"] == 1000
+        for bad, message in (("0", "expected an integer >= 1"), ("lots", "expected an integer")):
+            db.setValue("pimpm_fallback_max_dofs", bad)
+            with pytest.raises(ValueError, match=f"-pimpm_fallback_max_dofs {bad}: {message}"):
+                with_command_line(validate(base()))
+    finally:
+        db.delValue("pimpm_fallback_max_dofs")

@@ -109,3 +109,12 @@ def test_factorization_reuse_and_the_linear_predictor_are_on_in_3d_unless_the_in
     iterative = resolve({"pimpm_preset": "gmres-gamg"}, problem={"dim": 3}, **auto)
     assert not iterative.reuse_factorization and iterative.linear_predictor
     assert not resolve(problem={"dim": 3}, free_dofs_only=False, **auto).reuse_factorization
+
+
+def test_the_fallback_factorizes_at_most_the_free_dofs_the_input_allows():
+    """``solver.fallback_max_dofs``: auto is pimpm.presets.FALLBACK_MAX_DOFS
+    by dimension; a number wins."""
+    from pimpm.presets import FALLBACK_MAX_DOFS
+    assert resolve(fallback_max_dofs="auto").fallback_max_dofs == FALLBACK_MAX_DOFS[2]
+    assert resolve(problem={"dim": 3}, fallback_max_dofs="auto").fallback_max_dofs == FALLBACK_MAX_DOFS[3]
+    assert resolve(problem={"dim": 3}, fallback_max_dofs=123).fallback_max_dofs == 123

@@ -276,10 +276,33 @@ def test_direct_solver_factorizes_only_the_free_dofs():
         s.solver.destroy()
 
 
+def test_the_fallback_factorizes_the_free_dofs_or_cuts_the_step_when_they_are_too_many():
+    """The direct fallback solves the free dofs only (the prescribed rows by
+    their diagonal): with every GMRES solve failing it gives the direct
+    solver's steps; with fewer solver.fallback_max_dofs than free dofs it is
+    not tried, and Newton fails saying so (the step is then cut)."""
+    sim, infos = run_steps(billet_config("gmres-gamg", petsc={"ksp_max_it": 1}), 2)
+    direct, direct_infos = run_steps(billet_config("mumps"), 2)
+    for info, reference in zip(infos, direct_infos):
+        assert info["linear_fallbacks"] == info["newton_iterations"] == reference["newton_iterations"]
+    assert abs(bulge(sim) - bulge(direct)) <= 1e-10 * abs(bulge(direct))
+    fallback = sim.solver.fallback
+    assert fallback.free is not None and 0 < np.count_nonzero(fallback.free) < len(fallback.free)
+    raw = copy.deepcopy(billet_config("gmres-gamg", petsc={"ksp_max_it": 1}))
+    raw["solver"]["fallback_max_dofs"] = 10
+    capped = Simulation(raw, MPI.COMM_WORLD)
+    with pytest.raises(Exception, match="the direct fallback was not tried: more than "
+                                        "solver.fallback_max_dofs = 10 free dofs"):
+        capped.advance(raw["time"]["dt"])
+    assert capped.solver.fallback.fallbacks == 0 and capped.solver.fallback.skipped > 0
+    for s in (sim, direct, capped):
+        s.solver.destroy()
+
+
 def test_iterative_and_fallback_solvers_keep_the_whole_matrix():
     """Only a direct solver (preonly + lu/cholesky) gets the free-dof matrix:
     GMRES + GAMG with the fallback, and -pc_type lu under an iterative KSP,
-    solve the whole one."""
+    solve the whole one (the fallback extracts its free dofs when it must)."""
     gamg, _ = run_steps(billet_config("gmres-gamg"), 1)
     assert gamg.solver.free_dofs is None and gamg.solver.fallback is not None
     gamg.solver.destroy()

@@ -69,7 +69,7 @@ TIME_KEYS = ("integrator", "dt", "end_time", "gravity", "gravity_function", "dt_
              "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
              "stress_update", "formulation") + tuple(
     dict.fromkeys(k for cls in _INTEGRATOR_REGISTRY.values() for k in cls.parameters))
-SOLVER_KEYS = ("preset", "fallback", "convergence", "petsc", "free_dofs_only", "reuse_factorization",
+SOLVER_KEYS = ("preset", "fallback", "fallback_max_dofs", "convergence", "petsc", "free_dofs_only", "reuse_factorization",
                "linear_predictor")
 PARALLEL_KEYS = ("balance", "rebalance_threshold")
 CONVERGENCE_KEYS = ("test", "displacement_tolerance", "energy_tolerance")

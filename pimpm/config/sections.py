@@ -196,6 +196,14 @@ def _validate_solver(value, path):
     preset = "mumps" if preset is _MISSING else _enum(preset, sec.sub("preset"), SOLVER_PRESETS)
     fallback = sec.optional("fallback")
     fallback = True if fallback is _MISSING else _bool(fallback, sec.sub("fallback"))
+    # the most free dofs the direct fallback factorizes (auto: by dimension, pimpm.presets)
+    max_dofs = sec.optional("fallback_max_dofs")
+    if max_dofs is _MISSING or max_dofs == "auto":
+        max_dofs = "auto"
+    elif not _is_int(max_dofs) or max_dofs < 1:
+        _fail(sec.sub("fallback_max_dofs"), max_dofs, "an integer >= 1 or auto")
+    else:
+        max_dofs = int(max_dofs)
     conv = _Section(_optional_mapping(sec.optional("convergence")), sec.sub("convergence"),
                     CONVERGENCE_KEYS)
     test = conv.optional("test")
@@ -216,7 +224,7 @@ def _validate_solver(value, path):
             automatic[key] = given
         else:
             _fail(sec.sub(key), given, "true, false or auto")
-    return {"preset": preset, "fallback": fallback,
+    return {"preset": preset, "fallback": fallback, "fallback_max_dofs": max_dofs,
             "convergence": dict(test=test, **tols), "petsc": petsc, "free_dofs_only": free, **automatic}
 
 
