@@ -116,18 +116,13 @@ def _check_f_bar(config):
 
 def _check_contact(config):
     """Unilateral and frictional contact (pimpm.terms.contact) runs in the
-    implicit velocity formulation, and frictionless contact in the explicit
-    step too; say so for the others."""
+    velocity formulation (implicit and explicit); say so for the momentum
+    formulation."""
     time = config["time"]
     for i, body in enumerate(config["bodies"]):
         law = body.get("contact")
         if law in (None, "bonded"):
             continue
-        if time["integrator"] == "explicit" and law == "friction":
-            raise ConfigError(f"bodies[{i}].contact = {law!r}: expected bonded or frictionless with "
-                              "time.integrator: explicit (friction runs in the implicit integrators "
-                              "so far: in the explicit step the contact's normal force rings and the "
-                              "friction it allows is 10-60% off Coulomb's)", path=f"bodies[{i}].contact")
         if time["formulation"] != "velocity":
             raise ConfigError(f"bodies[{i}].contact = {law!r}: expected bonded with "
                               f"time.formulation: {time['formulation']} (frictionless and friction "

@@ -474,7 +474,7 @@ def contact_faces(kind, params, x, offset_end, faces):
 
 @jit
 def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, friction, dim, f, D, traction,
-                  elastic, face=-1, hold=False):
+                  elastic, face=-1, hold=False, applied=-1.0):
     """The contact law at one point: the force ``f`` on the body (dim), its
     derivative ``D`` = df/dy (dim x dim), the tangential traction on the
     body ``traction`` (dim) and the status (OPEN, STICK, SLIP), for the point
@@ -501,6 +501,9 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
     normal stiffness -kn a n n^T all the same (status HELD, no force): the
     first Newton iteration of a step, whose predictor may lift a resting
     corner off the tool by round-off, then does not throw the body away.
+    ``applied`` >= 0: the pressure is this (the explicit step's, applied at
+    its trial state: :meth:`pimpm.terms.contact.ContactTool.settle`), not
+    the penalty's at ``y``; 0 is open.
     Returns (status, pressure, the slip beyond the elastic one: the
     frictional dissipation is area mu p times it)."""
     n = np.empty(3)
@@ -512,6 +515,10 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
         elastic[a] = 0.0
         for b in range(dim):
             D[a, b] = 0.0
+    if applied >= 0.0:                        # the explicit step's pressure, where the corner is now
+        if not applied > 0.0:
+            return OPEN, 0.0, 0.0
+        phi = -applied / kn
     if not phi <= 0.0:                        # touching (phi = 0, as placed on a tool) is in contact
         if hold and phi < stick:
             for a in range(dim):
@@ -676,14 +683,15 @@ def _scatter_corner(W, node_index, p, c, dim, vector, out):
 @jit
 def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end, increment, history,
                    area, faces, kn, stick, kt, mu, friction, held, force_local, D, status, pressure, traction,
-                   elastic, dissipation, corner_force):
+                   elastic, dissipation, corner_force, applied):
     """The contact term at the iterate ``u_local``: each corner's force on
     the body scattered to its particle's nodes (added to ``force_local``),
     and per corner its derivative ``D`` (n, corners, dim, dim), status,
     pressure, tangential traction on the body, elastic slip (the next
     step's ``history``), frictional dissipation over the step and force on
-    the body (``corner_force``). ``held`` (n, corners): the corners to hold
-    (:func:`contact_point`)."""
+    the body (``corner_force``). ``held`` (n, corners): the corners to hold;
+    ``applied`` (n, corners): each corner's pressure where >= 0 (the explicit
+    step's, :func:`contact_point`), the penalty's where -1."""
     n_particles, corners, nn = W.shape
     dim = x.shape[1]
     y = np.empty(3)
@@ -697,7 +705,8 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
             for a in range(dim):
                 slip[a] = moved[a] - increment[a]
             s, pr, plastic = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, kt, mu,
-                                  friction, dim, f, D[p, c], t, elastic[p, c], faces[p], held[p, c])
+                                  friction, dim, f, D[p, c], t, elastic[p, c], faces[p], held[p, c],
+                                  applied[p, c])
             status[p, c] = s
             pressure[p, c] = pr
             for a in range(dim):

@@ -30,6 +30,11 @@ from .base import NodalTerm
 #: the particle fields the contact of tool ``i`` carries: each corner's elastic
 #: slip, and whether it was in contact at the end of the last step
 SLIP_FIELD = "contact_slip_{}"
+#: what the explicit step applied at its trial state: the forces it reports
+APPLIED = ("force", "pressure", "traction", "corner_force")
+#: the explicit step's stick length, in cells: so short that a sticking point's
+#: stiffness is always the cap (the explicit penalty), see ContactTool._evaluate_with
+STICK_EXPLICIT = 1e-9
 TOUCHING_FIELD = "contact_touching_{}"
 
 
@@ -163,10 +168,12 @@ class ContactTool(NodalTerm):
         self._held = self._touching[c].astype(bool)
         self._holding = bool(np.any(self._held))
 
-    def _evaluate(self, u_local):
+    def _evaluate(self, u_local, applied=None):
         """The corners at the iterate ``u_local`` (ghosted-local; cached per
-        iterate: ``self._u`` is the iterate of ``self._local``)."""
-        if self._u is not None and np.array_equal(self._u, u_local):
+        iterate: ``self._u`` is the iterate of ``self._local``); ``applied``:
+        each corner's pressure instead of the penalty's (the explicit step's
+        :meth:`settle`; not cached)."""
+        if applied is None and self._u is not None and np.array_equal(self._u, u_local):
             return self._local
         state, W, offsets, area = self._step
         n, corners = area.shape
@@ -184,11 +191,12 @@ class ContactTool(NodalTerm):
                                           u_local, self.offset + self._increment, self._increment,
                                           cand["history"], area, self._faces, self.kn, self.stick, self.kt, self.mu,
                                           self.friction, held, force, D, status, pressure, traction, elastic,
-                                          dissipation, corner_force)
+                                          dissipation, corner_force,
+                                          np.full((n, corners), -1.0) if applied is None else applied)
         self._local = {"force": force, "D": D, "status": status, "pressure": pressure,
                        "traction": traction, "elastic": elastic, "dissipation": dissipation,
                        "corner_force": corner_force}
-        self._u = u_local.copy()
+        self._u = u_local.copy() if applied is None else None
         return self._local
 
     def add_residual(self, u_owned, u_local, residual, grid):
@@ -268,22 +276,36 @@ class ContactTool(NodalTerm):
         self._explicit_kn = self._comm.allreduce(kn, op=MPI.MIN)
         local = self._evaluate_with(self._explicit_kn, self._grid.owned_to_local(trial))
         force += self._grid.sum_to_owned(local["force"])
+        self._applied = {key: local[key].copy() for key in APPLIED}
 
-    def _evaluate_with(self, kn, u_local):
-        saved, self.kn = self.kn, kn
+    def _evaluate_with(self, kn, u_local, applied=None):
+        """The explicit step's evaluation: penalty ``kn`` and a sticking
+        point's tangential stiffness kn as well (an elastic slip of at most
+        mu p / kn). The implicit regularization, an elastic slip of a
+        thousandth of a cell, is about five explicit steps of the ramp's
+        sliding block: each corner that came into contact stuck at a fraction
+        of mu p while it built up, and the block slid 16% too fast."""
+        saved = self.kn, self.kt, self.stick
+        self.kn, self.kt, self.stick = kn, kn, STICK_EXPLICIT * self.h
         try:
-            return self._evaluate(u_local)
+            return self._evaluate(u_local, applied)
         finally:
-            self.kn = saved
+            self.kn, self.kt, self.stick = saved
 
     def settle(self, u_local):
         """The explicit step's corners where the step really took them
-        (``u_local``: dt times the new grid velocity, ghosted-local): the
-        elastic slips and states the next step starts from. (The trial state
-        of :meth:`add_explicit_force` would store the slip the step would
-        have made without friction: a sticking block's elastic slip would
-        grow by dt^2 g every step until it slipped.)"""
-        self._evaluate_with(self._explicit_kn, u_local)
+        (``u_local``: dt times the new grid velocity, ghosted-local), pressed
+        with the pressures the step applied: the elastic slips and states the
+        next step starts from, and Coulomb's dissipation over the slip the
+        step really made. The forces reported are those applied.
+        (The trial state of :meth:`add_explicit_force` would store the slip
+        the step would have made without friction: a sticking block's elastic
+        slip would grow by dt^2 g every step until it slipped. And the
+        penalty's pressure where the corner is now is what the step left of
+        the penetration, about half the applied one: Coulomb's limit on it let
+        the ramp's block slip 10-60% too easily.)"""
+        local = self._evaluate_with(self._explicit_kn, u_local, self._applied["pressure"])
+        local.update(self._applied)
 
     def increment(self):
         return self._increment
