@@ -190,6 +190,16 @@ def expected_summary(path):
             elif geo["type"] == "half_space":  # centre strictly on the inner side of the plane
                 normal = np.array(geo["normal"], float)
                 inside = (points - np.array(geo["point"], float)) @ (normal / np.linalg.norm(normal)) < 0.0
+            elif geo["type"] == "surface":     # one segment (the shipped ramp): the side on its left,
+                import meshio                  # within a cell of it, sub-cells clipped to that box
+                mesh = meshio.read(os.path.join(os.path.dirname(path), geo["file"]))
+                (first, last), = [c.data for c in mesh.cells if c.type == "line"][0]
+                start, end = mesh.points[first, :dim], mesh.points[last, :dim]
+                normal = np.array([end[1] - start[1], start[0] - end[0]])
+                box_lo = np.maximum(np.minimum(start, end) - h, np.array(g["lower"], float))
+                box_hi = np.minimum(np.maximum(start, end) + h, np.array(g["upper"], float))
+                lo, hi = np.maximum(points - half, box_lo), np.minimum(points + half, box_hi)
+                inside = np.all(hi - lo > 1e-9 * half, axis=1) & ((0.5 * (lo + hi) - start) @ normal < 0.0)
             else:                              # overlaps the box, centre strictly inside radially
                 radial = [d for d in range(dim) if d != "xyz".index(geo["axis"])]
                 inside = np.all((points + half > np.array(geo["lower"], float) + 1e-9 * half)
