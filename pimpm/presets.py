@@ -40,7 +40,7 @@ PRESETS = {
 
 #: the most free dofs the direct fallback factorizes, by dimension (``auto``):
 #: a 3D factorization's work grows as the square of its unknowns (nested
-#: dissection): the 0.5 mm 3D upsetting's 26,600 free dofs take 2.2 s
+#: dissection): the 0.5 mm 3D upsetting's free dofs (about a tenth of 266,511) take 2.2 s
 #: (docs/PERFORMANCE.md, "3D at 0.5 mm"), so by that rule 100,000 take about
 #: half a minute, longer than a step of the iterative solver there; 2D work
 #: grows as the 1.5 power, and its cap only guards against absurd sizes
