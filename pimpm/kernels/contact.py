@@ -29,8 +29,8 @@ HALF_SPACE, BOX, BALL, CYLINDER, MESH = 0, 1, 2, 3, 4
 #: a MESH tool's params: the 12 common ones, then (facets, vertices per facet,
 #: record length, where the hierarchy starts), then one record per facet
 #: (:func:`pimpm.surfaces.pack`): its vertices (3 per vertex), unit normal (3),
-#: bounding box (lower 3, upper 3), vertex pseudo-normals (3 per vertex) and,
-#: for triangles, edge pseudo-normals (3 per edge: 0-1, 1-2, 2-0); then the
+#: vertex pseudo-normals (3 per vertex) and, for triangles, edge
+#: pseudo-normals (3 per edge: 0-1, 1-2, 2-0); then the
 #: bounding-volume hierarchy of the facets, NODE numbers per node: its box
 #: (lower 3, upper 3), its children (-1: a leaf) and its facets (first, count)
 MESH_HEADER = 16
@@ -124,6 +124,17 @@ def _facet_nearest(params, r, y, dim, q):
     return _triangle_nearest(params, base, y, q)
 
 
+@jit_inline
+def _plane_distance(params, r, y, dim):
+    """Signed distance of ``y`` from the plane of facet ``r`` (its normal's side positive)."""
+    base = MESH_HEADER + r * int(params[14])
+    normal = base + 3 * int(params[13])
+    side = 0.0
+    for a in range(dim):
+        side += (y[a] - params[base + a]) * params[normal + a]
+    return side
+
+
 @jit
 def _mesh_nearest(params, y, dim, q, facing=-1):
     """The facet nearest to ``y``, its nearest point ``q`` and feature: a
@@ -208,19 +219,15 @@ def _mesh_distance(params, y, dim, n, H, face):
     q = np.empty(3)
     if face >= 0:                             # the nearest facet that faces the way ``face`` does
         r, d2, _ = _mesh_nearest(params, y, dim, q, int(face))
-        base = MESH_HEADER + r * length
-        phi = 0.0
-        for a in range(dim):
-            phi += (y[a] - params[base + a]) * params[base + 3 * k + a]
+        phi = _plane_distance(params, r, y, dim)
         if d2 - phi * phi <= params[11] * params[11]:      # over it (widened by params[11])
+            base = MESH_HEADER + r * length
             for a in range(dim):
                 n[a] = params[base + 3 * k + a]
             return phi
     r, d2, feature = _mesh_nearest(params, y, dim, q)
     base = MESH_HEADER + r * length
-    side = 0.0                                # the distance from the facet's plane
-    for a in range(dim):
-        side += (y[a] - params[base + a]) * params[base + 3 * k + a]
+    side = _plane_distance(params, r, y, dim)
     # inside the facet, or over its edge or vertex within a millionth of params[11]
     # (a point over the joint of two coplanar facets is over a flat surface: no curvature)
     if feature == INTERIOR or d2 - side * side <= (1e-6 * params[11]) ** 2:
@@ -228,9 +235,9 @@ def _mesh_distance(params, y, dim, n, H, face):
             n[a] = params[base + 3 * k + a]
         return side
     if feature >= EDGE:
-        pseudo = base + 6 * k + 9 + 3 * (feature - EDGE)
+        pseudo = base + 6 * k + 3 + 3 * (feature - EDGE)
     else:
-        pseudo = base + 3 * k + 9 + 3 * (feature - VERTEX)
+        pseudo = base + 3 * k + 3 + 3 * (feature - VERTEX)
     d = np.sqrt(d2)
     if d == 0.0:                              # on the surface at an edge or vertex
         for a in range(dim):
@@ -426,7 +433,9 @@ def contact_faces(kind, params, x, offset_end, faces):
     ``offset_end``: where it is at the start of the step); -1 where the centre lies beyond an edge or inside
     (then the nearest point of the tool counts), and for other tools. A
     mesh's face: the facet nearest to the centre, if the centre lies outside
-    the tool and its nearest point is inside that facet."""
+    the tool and over that facet (its projection on the facet's plane within
+    ``params[11]`` of the facet: a point over the joint of coplanar facets
+    has one)."""
     n_particles, dim = x.shape
     y_mesh = np.empty(3)
     q = np.empty(3)
@@ -436,10 +445,7 @@ def contact_faces(kind, params, x, offset_end, faces):
             for a in range(dim):
                 y_mesh[a] = x[p, a] - offset_end[a]
             r, d2, _ = _mesh_nearest(params, y_mesh, dim, q)
-            base = MESH_HEADER + r * int(params[14])
-            side = 0.0                        # the distance from the facet's plane
-            for a in range(dim):
-                side += (y_mesh[a] - params[base + a]) * params[base + 3 * int(params[13]) + a]
+            side = _plane_distance(params, r, y_mesh, dim)
             # outside, and above the facet (its interior, or an edge with a coplanar neighbour)
             if side > 0.0 and d2 - side * side <= params[11] * params[11]:
                 faces[p] = r
