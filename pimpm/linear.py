@@ -81,27 +81,36 @@ class FallbackKSP:
                                         comm=P.getComm())
         sub = P.createSubMatrix(rows, rows)
         xs, bs = sub.createVecs()
-        rhs = b.getArray(readonly=True)
-        bs.setArray(rhs[free])
-        self.direct.setOperators(sub, sub)
-        self.direct.solve(bs, xs)
-        reason = self.direct.getConvergedReason()
-        diagonal = P.getDiagonal()
-        out = np.empty_like(rhs)
-        prescribed = ~free
-        out[prescribed] = rhs[prescribed] / diagonal.getArray(readonly=True)[prescribed]
-        out[free] = xs.getArray(readonly=True)
-        x.setArray(out)
-        self.direct.reset()            # the factors go now, not at the next fallback
-        for obj in (rows, sub, xs, bs, diagonal):
-            obj.destroy()
-        return reason
+        try:
+            bs.setArray(b.getArray(readonly=True)[free])
+            self.direct.setOperators(sub, sub)
+            self.direct.solve(bs, xs)
+            _with_prescribed(P, b, free, xs, x)
+            return self.direct.getConvergedReason()
+        finally:                       # the factors go now (also after a PETSc error), not at the next fallback
+            self.direct.reset()
+            for obj in (rows, sub, xs, bs):
+                obj.destroy()
 
     def view(self, ksp, viewer):
         viewer.printfASCII("  iterative solver with direct fallback on the free dofs (Guilkey & Weiss 3.3):\n")
         if self.iterative is not None:
             self.iterative.view(viewer)
             self.direct.view(viewer)
+
+
+def _with_prescribed(A, b, free, x_free, x):
+    """x: the free dofs' solution ``x_free`` where ``free`` (owned dofs),
+    and b over A's diagonal on the prescribed rows (they hold only their
+    diagonal: :class:`FreeDofsKSP`)."""
+    rhs = b.getArray(readonly=True)
+    diagonal = A.getDiagonal()
+    out = np.empty_like(rhs)
+    prescribed = ~free
+    out[prescribed] = rhs[prescribed] / diagonal.getArray(readonly=True)[prescribed]
+    out[free] = x_free.getArray(readonly=True)
+    diagonal.destroy()
+    x.setArray(out)
 
 
 #: the lagged solves' relative tolerance (on the true residual) and iteration
@@ -190,16 +199,9 @@ class FreeDofsKSP:
 
     def solve(self, ksp, b, x):
         A, _ = ksp.getOperators()
-        diagonal = A.getDiagonal()
-        rhs = b.getArray(readonly=True)
-        self.b.setArray(rhs[self.free])
+        self.b.setArray(b.getArray(readonly=True)[self.free])
         its, reason = self._solve_free()
-        out = np.empty_like(rhs)
-        prescribed = ~self.free
-        out[prescribed] = rhs[prescribed] / diagonal.getArray(readonly=True)[prescribed]
-        out[self.free] = self.x.getArray(readonly=True)
-        diagonal.destroy()
-        x.setArray(out)
+        _with_prescribed(A, b, self.free, self.x, x)
         ksp.setIterationNumber(its)
         ksp.setConvergedReason(reason)
 
