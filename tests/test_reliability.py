@@ -134,3 +134,60 @@ def test_a_grid_too_small_for_the_ranks_is_refused_on_every_rank(tmp_path):
     assert "Traceback" not in proc.stderr and "error code" not in proc.stderr
     assert "grid.cells = [2, 2, 2]: on 4 ranks" in proc.stderr and "fewer ranks" in proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+def _runs_as_another_user():
+    """subprocess arguments that run pimpm as a user permissions bind: root
+    runs it as 'nobody' (root writes anywhere), if 'nobody' can reach the
+    checkout; None when it cannot."""
+    if os.geteuid() != 0:
+        return {}
+    path = ROOT
+    while path != os.path.dirname(path):
+        if not os.stat(path).st_mode & 0o001:      # no search permission for others
+            return None
+        path = os.path.dirname(path)
+    return {"user": 65534, "group": 65534, "extra_groups": []}
+
+
+def test_an_output_directory_that_cannot_be_written_is_refused_before_anything_is_written():
+    """Issue 32: an output directory that exists but cannot be written was
+    run into, and the first HDF5 write ended in a PermissionError traceback
+    (status 1). A fresh run and a --restart into it are one line and status
+    2 now, every file as it was. Root writes anywhere, so as root the runs
+    are made as 'nobody'."""
+    import shutil
+    import tempfile
+    user = _runs_as_another_user()
+    if user is None:
+        pytest.skip("'nobody' cannot reach the checkout")
+    work = tempfile.mkdtemp(prefix="pimpm-unwritable-")
+    try:
+        os.chmod(work, 0o777)
+        first = subprocess.run([sys.executable, "-m", "pimpm", BAR, "--output", "o", "--set",
+                                "output.checkpoint_every=1", "--set", "time.end_time=5.17"],
+                               env=mpi_env(), cwd=work, capture_output=True, text=True, timeout=120)
+        assert first.returncode == 0, first.stderr[-2000:]
+        os.makedirs(os.path.join(work, "fresh"))
+        for d in ("o", "fresh"):
+            os.chmod(os.path.join(work, d), 0o555)
+
+        def snapshot():
+            return {os.path.join(r, p): open(os.path.join(r, p), "rb").read()
+                    for d in ("o", "fresh") for r, _, files in os.walk(os.path.join(work, d)) for p in files}
+
+        before = snapshot()
+        env = dict(mpi_env(), HOME=work, NUMBA_CACHE_DIR=os.path.join(work, "numba-cache"))
+        for args, name in (([], "fresh"), (["--restart", "--set", "output.checkpoint_every=1"], "o")):
+            proc = subprocess.run([sys.executable, "-m", "pimpm", BAR, "--output", name, *args], env=env,
+                                  cwd=work, capture_output=True, text=True, timeout=120, **user)
+            assert proc.returncode == 2, proc.stderr[-2000:]
+            assert "Traceback" not in proc.stderr
+            assert proc.stderr.count("pimpm: error:") == 1
+            assert f"output.directory = '{name}'" in proc.stderr and "cannot create files in it" in proc.stderr
+            assert snapshot() == before
+    finally:
+        for d in ("o", "fresh"):
+            if os.path.isdir(os.path.join(work, d)):
+                os.chmod(os.path.join(work, d), 0o755)
+        shutil.rmtree(work)

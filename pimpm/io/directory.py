@@ -12,6 +12,20 @@ OUTPUT_FILES = (H5_NAME, PARTICLES_XDMF, GRID_XDMF, HISTORY_CSV, CHECKPOINT_H5)
 ALL_NAMES = OUTPUT_FILES + tuple(f + ".tmp" for f in OUTPUT_FILES)
 
 
+def write_problem(directory):
+    """Why pimpm cannot create files in the existing ``directory`` (a
+    phrase), or None.
+    Tried with a file (permissions do not bind root, a read-only file system
+    or an ACL may bind anyone): os.access alone would pass what fails later."""
+    probe = os.path.join(directory, f".pimpm-write-test-{os.getpid()}")
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        os.remove(probe)
+    except OSError as err:
+        return f"cannot create files in it ({err.strerror}): expected a directory this user may write"
+    return None
+
+
 def prepare_output_directory(comm, directory, overwrite):
     """Refuse to overwrite results unless asked; create the directory.
     Collective; raises UsageError on every rank."""
@@ -36,6 +50,9 @@ def prepare_output_directory(comm, directory, overwrite):
             problem = (f"output.directory = {directory!r} already holds results "
                        f"({', '.join(existing)}): expected a new directory "
                        f"(or pass --overwrite to replace them)")
+    if comm.rank == 0 and problem is None and os.path.isdir(directory):
+        problem = write_problem(directory)      # before --overwrite removes anything
+        problem = problem and f"output.directory = {directory!r}: {problem}"
     if comm.rank == 0 and problem is None:
         try:
             os.makedirs(directory, exist_ok=True)

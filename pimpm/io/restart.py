@@ -7,7 +7,7 @@ import csv
 import math
 import os
 
-from .directory import ALL_NAMES, HISTORY_CSV
+from .directory import ALL_NAMES, HISTORY_CSV, write_problem
 from .hdf5 import same_grid, step_records
 from .layout import H5_NAME
 
@@ -31,6 +31,9 @@ def check_restart_files(comm, directory, grid, history_columns):
 
 
 def _check(directory, grid, history_columns):
+    problem = write_problem(directory)
+    if problem:
+        raise ValueError(problem)
     for name in ALL_NAMES:
         path = os.path.join(directory, name)
         if os.path.islink(path):
