@@ -31,7 +31,8 @@ pimpm's defaults (Newton with backtracking line search, MUMPS LU), e.g.
   -options_file FILE   -help (PETSc's own option list)
 
 Output: OUTDIR/results.h5, particles.xdmf and grid.xdmf (open in ParaView),
-history.csv (one row per step), checkpoint.h5. Exit status: 0 done,
+history.csv (one row per step), checkpoint.h5 (and its digest,
+checkpoint.sha256). Exit status: 0 done,
 1 numerical failure (results up to the last good step are kept, and a
 checkpoint of it) or an unexpected error (on any rank: every rank stops),
 2 bad input or usage, 143 / 130 / 129 stopped by SIGTERM / SIGINT / SIGHUP (the step in

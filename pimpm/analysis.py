@@ -378,6 +378,10 @@ def prepare_restart(config, comm, control):
         raise UsageError(f"output.directory = {directory!r}: checkpoint.h5 has no {err}: expected "
                          "the checkpoint of a run of this input") from None
     control.restore(checkpoint.control)
+    steps = (control.dt, control.target, control.initial)
+    if (None in steps and not sim.integrator.explicit) or (control.dt is None and control.cuts > 0):
+        raise UsageError(f"output.directory = {directory!r}: no usable checkpoint.h5 to restart from "
+                         f"(its step sizes {checkpoint.control}): expected the checkpoint of a run of this input")
     if control.done(sim.time):
         raise UsageError(f"time.end_time = {config['time']['end_time']!r}: expected a time after the "
                          f"checkpoint's t = {sim.time:.6g} (step {sim.step_index}) to continue to")

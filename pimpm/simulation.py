@@ -59,6 +59,8 @@ class Simulation:
         g = config["grid"]
         self.shape = make_shape(g["shape_functions"], dim)
         same_layout = checkpoint is not None and checkpoint.same_ranks
+        if same_layout:
+            self._check_layout(checkpoint, np.asarray(g["cells"]) + 1)
         self.grid = Grid(comm, g["lower"], g["upper"], g["cells"], stencil_width=self.shape.stencil_width,
                          ownership_ranges=checkpoint.ownership_ranges if same_layout else None,
                          proc_sizes=checkpoint.proc_sizes if same_layout else None)
@@ -134,18 +136,74 @@ class Simulation:
                 self.particles[term.output_fields[0]] = np.zeros(len(self.particles), dtype=np.int8)
                 self.particles[term.output_fields[1]] = np.zeros((len(self.particles), self.dim))
 
+    def _check_layout(self, checkpoint, nodes):
+        """The checkpoint's ownership ranges cover the grid's nodes, each at
+        least a stencil wide (a DMDA would stop some ranks otherwise)."""
+        ranges = checkpoint.ownership_ranges
+        if len(ranges) != self.dim or any(int(np.sum(r)) != n or int(np.min(r)) < self.shape.stencil_width
+                                          for r, n in zip(ranges, nodes)):
+            raise SetupError(f"the checkpoint's ownership ranges {[np.asarray(r).tolist() for r in ranges]} "
+                             f"do not split the grid's {nodes.tolist()} nodes: expected an intact checkpoint")
+
+    def _field_shapes(self):
+        """Each particle set's fields a checkpoint of this input holds: name ->
+        (shape of one particle's value, dtype kind: 'f' float, 'i' integer)."""
+        dim, corners = self.dim, 1 << self.dim
+        vector, tensor = ((dim,), "f"), ((3, 3), "f")
+        scalar, index = ((), "f"), ((), "i")
+        particles = {"x": vector, "x0": vector, "v": vector, "a": vector, "F": tensor, "stress": tensor,
+                     "volume0": scalar, "mass": scalar, "half_size": vector, "body": index, "id": index,
+                     "surface": ((2 * dim,), "f")}
+        for material in self.materials:
+            particles.update({"h_" + k: (tuple(shape), "f") for k, shape in material.model.history.items()})
+        particles.update({load.field: scalar for load in self.loads})
+        for term in self.terms:
+            if getattr(term, "field", None) is not None:
+                particles.update({term.field: ((corners, dim), "f"), term.touching_field: ((corners,), "i"),
+                                  term.output_fields[0]: index, term.output_fields[1]: vector})
+        rigid = {"x": vector, "x0": vector, "v": vector, "body": index, "id": index, "half_size": vector}
+        return {"particles": particles, "rigid": rigid}
+
+    def _check_fields(self, sets):
+        """A problem of this rank's checkpointed particles, or None: a field
+        missing or of another shape or type, a body index out of range, a
+        particle outside the grid or without mass, volume or size."""
+        lower, upper = self.grid.lower, self.grid.upper
+        for name, spec in self._field_shapes().items():
+            data = sets[name]
+            missing = sorted(set(spec) - set(data))
+            if missing:
+                return f"the checkpoint's {name} have no {', '.join(missing)}"
+            for field in sorted(data):
+                if field not in spec:
+                    return f"the checkpoint's {name}' {field} is not a field of this input's run"
+                shape, kind = spec[field]
+                if data[field].shape[1:] != shape or data[field].dtype.kind != kind:
+                    return (f"the checkpoint's {name}' {field} holds {data[field].dtype} of shape "
+                            f"{data[field].shape[1:]} per particle: expected "
+                            f"{'floats' if kind == 'f' else 'integers'} of shape {shape}")
+            x, body = data["x"], data["body"]
+            if np.any(x < lower) or np.any(x > upper):
+                return f"the checkpoint's {name} are not all inside the grid"
+            if np.any(body < 0) or np.any(body >= len(self.body_names)):
+                return f"the checkpoint's {name}' body indices are not all bodies of the input"
+            if np.any(data["half_size"] < 0.0) or np.any(data["half_size"] > self.grid.spacing):
+                return f"the checkpoint's {name}' half_size are not all in [0, one cell]"
+        p = sets["particles"]
+        if np.any(p["mass"] <= 0.0) or np.any(p["volume0"] <= 0.0):
+            return "the checkpoint's particles do not all have a positive mass and volume"
+        if np.any(np.linalg.det(p["F"]) <= 0.0):
+            return "the checkpoint's particles' deformation gradients F do not all have det F > 0"
+        return None
+
     def _restore(self, checkpoint):
         """The state of a checkpoint: particles (on the same number of ranks,
         each rank's own in their order; otherwise the ones in this rank's
-        cells), time, step, work and the initial count and mass. Collective."""
-        history = {"h_" + k for material in self.materials for k in material.model.initial_history()}
-        required = {"particles": set(MATERIAL_FIELDS) | history | {load.field for load in self.loads},
-                    "rigid": set(RIGID_FIELDS)}
-        for name, data in checkpoint.sets.items():
-            missing = sorted(required[name] - set(data))
-            if missing:
-                raise SetupError(f"the checkpoint's {name} have no {', '.join(missing)}: expected the "
-                                 "checkpoint of a run of this input, intact")
+        cells), time, step, work and the initial count and mass. Collective;
+        SetupError on every rank if the checkpoint is not one of this input's run."""
+        problems = [p for p in self.comm.allgather(self._check_fields(checkpoint.sets)) if p]
+        if problems:
+            raise SetupError(f"{problems[0]}: expected the checkpoint of a run of this input, intact")
         fields = {}
         for name, data in checkpoint.sets.items():
             pset = ParticleSet(data)
@@ -162,7 +220,11 @@ class Simulation:
         self.work.restore(checkpoint.work)
         for term in self.terms:
             if term.name in checkpoint.terms:
-                term.restore(checkpoint.terms[term.name])
+                try:
+                    term.restore(checkpoint.terms[term.name])
+                except (KeyError, ValueError, TypeError) as err:
+                    raise SetupError(f"the checkpoint's state of {term.name!r} ({err}): expected an "
+                                     "intact checkpoint") from None
         self.count0 = checkpoint.initial["count"]
         self.rigid_count0 = checkpoint.initial["rigid_count"]
         self.mass0 = checkpoint.initial["mass"]
@@ -170,6 +232,10 @@ class Simulation:
         if count != self.count0 or self.rigid.global_count(self.comm) != self.rigid_count0:
             raise SetupError(f"the checkpoint holds {count} particles where its run had {self.count0}: "
                              f"expected an intact checkpoint")
+        mass = float(self.particles.global_sum(self.comm, "mass"))
+        if abs(mass - self.mass0) > 1e-9 * max(abs(mass), abs(self.mass0)):
+            raise SetupError(f"the checkpoint's particles weigh {mass:.9g} where its run's weighed "
+                             f"{self.mass0:.9g}: expected an intact checkpoint")
 
     def _make_solver(self):
         """The step problem and its Newton solver on the current grid."""

@@ -780,7 +780,7 @@ def test_newton_failure_exits_1_and_keeps_results(failed_runs):
     assert len(lines) == 1, show(proc)
     assert "Newton did not converge" in lines[0] and "bar_out" in lines[0], lines[0]
     # the results of the good steps, and a checkpoint of the last one to continue from
-    assert sorted(os.listdir(out)) == sorted(OUTPUT_FILES + ("checkpoint.h5",))
+    assert sorted(os.listdir(out)) == sorted(OUTPUT_FILES + ("checkpoint.h5", "checkpoint.sha256"))
     assert h5_steps(os.path.join(out, "results.h5")) == [0]  # the initial state only
     header, rows = read_history(os.path.join(out, "history.csv"))
     assert header[0] == "step" and rows == []

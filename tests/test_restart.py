@@ -250,16 +250,37 @@ def test_restarts_that_cannot_be_are_refused(name, tmp_path):
     assert after == before
 
 
+def _signed(edit):
+    """An edit of checkpoint.h5 with checkpoint.sha256 made to match, as if
+    it had been written so: what reads the file is tested, not the digest."""
+    def signed(out):
+        from pimpm.io.checkpoint import file_digest
+        edit(out)
+        (out / "checkpoint.sha256").write_text(file_digest(out / "checkpoint.h5") + "\n")
+    return signed
+
+
 def _set_attr(name, value):
+    @_signed
     def edit(out):
         with h5py.File(out / "checkpoint.h5", "r+") as f:
             f.attrs[name] = value
     return edit
 
 
+@_signed
 def _drop_field(out):
     with h5py.File(out / "checkpoint.h5", "r+") as f:
         del f["particles/F"]
+
+
+def _flip_bytes(out):
+    """Bytes of the checkpoint flipped where HDF5 keeps its own metadata
+    (the HDF5 library crashed on such a file: issue 32's fuzzer)."""
+    content = bytearray((out / "checkpoint.h5").read_bytes())
+    for k in range(4):
+        content[(20931 + 4099 * k) % len(content)] ^= 0xFF
+    (out / "checkpoint.h5").write_bytes(bytes(content))
 
 
 def _append(name, text):
@@ -284,9 +305,10 @@ def _link(name):
 
 
 DAMAGED = {
-    "negative step": (_set_attr("step", -5), "a checkpoint of step -5"),
-    "NaN time": (_set_attr("time", float("nan")), "time nan"),
+    "negative step": (_set_attr("step", -5), "its step is -5: expected an integer from 0 up"),
+    "NaN time": (_set_attr("time", float("nan")), "its time is nan: expected a finite number >= 0"),
     "a particle field missing": (_drop_field, "the checkpoint's particles have no F"),
+    "flipped bytes": (_flip_bytes, "does not match its digest in checkpoint.sha256"),
     "a garbage history row": (_append("history.csv", "garbage,row\n"), "is not a row of"),
     "a foreign results file": (_replace("results.h5", "not HDF5\n"), "is not a readable HDF5 file"),
     "other history columns": (_replace("history.csv", "a,b\n1,2\n"), "has other columns than this run writes"),
@@ -330,6 +352,28 @@ def test_a_restart_from_damaged_files_changes_nothing(name, checkpointed_bar, tm
     assert snapshot() == before
 
 
+def test_a_checkpoint_damaged_on_one_rank_is_refused_on_both(tmp_path):
+    """A non-finite position in the last particle (rank 1's share of a
+    2-rank checkpoint) is found by rank 1 alone: both ranks refuse it with
+    one line and status 2, none waits for the other."""
+    args = [os.path.join(ROOT, "inputs", "bar_tension.yaml"), "--output", "o", "--set",
+            "output.checkpoint_every=1"]
+    proc = pimpm(2, args + ["--set", "time.end_time=5.17"], tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+
+    @_signed
+    def nan_last(out):
+        with h5py.File(out / "checkpoint.h5", "r+") as f:
+            assert f["particles"].attrs["counts_per_rank"][1] > 0
+            f["particles/x"][-1, 0] = np.nan
+    nan_last(tmp_path / "o")
+    proc = pimpm(2, args + ["--restart"], tmp_path, timeout=60)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("pimpm: error:")]
+    assert len(errors) == 1 and "its particles' x are not all finite" in errors[0], proc.stderr
+
+
 def test_a_closed_terminal_stops_the_run_with_a_checkpoint(tmp_path):
     """SIGHUP (issue 32) is handled like SIGTERM: the run stops at the next
     step boundary with status 129, a checkpoint of the last good step and
@@ -342,3 +386,35 @@ def test_a_closed_terminal_stops_the_run_with_a_checkpoint(tmp_path):
     proc = pimpm(1, args + ["--restart"], tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert len(history(tmp_path / "o")[1]) == 10
+
+
+def test_a_stop_between_the_renames_leaves_a_checkpoint_that_matches(tmp_path):
+    """checkpoint.sha256 is replaced before checkpoint.h5, and it lists the
+    digest it replaces: a stop between the two renames leaves the previous
+    checkpoint with a digest file that still accepts it; after both, the new
+    one matches; a third file matches neither."""
+    from pimpm.io.checkpoint import _replace_with_digest, digest_problem
+    path = tmp_path / "checkpoint.h5"
+    (tmp_path / "checkpoint.h5.tmp").write_bytes(b"first")
+    _replace_with_digest(str(tmp_path / "checkpoint.h5.tmp"), str(path))
+    assert digest_problem(str(tmp_path)) is None
+    (tmp_path / "checkpoint.h5.tmp").write_bytes(b"second")
+    real_replace, calls = os.replace, []
+
+    def stop_at_the_second(src, dst):
+        calls.append(dst)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        real_replace(src, dst)
+    import pimpm.io.checkpoint as checkpoint_module
+    checkpoint_module.os.replace = stop_at_the_second
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            _replace_with_digest(str(tmp_path / "checkpoint.h5.tmp"), str(path))
+    finally:
+        checkpoint_module.os.replace = real_replace
+    assert path.read_bytes() == b"first" and digest_problem(str(tmp_path)) is None
+    _replace_with_digest(str(tmp_path / "checkpoint.h5.tmp"), str(path))
+    assert path.read_bytes() == b"second" and digest_problem(str(tmp_path)) is None
+    path.write_bytes(b"third")
+    assert "does not match its digest" in digest_problem(str(tmp_path))

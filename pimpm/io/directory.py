@@ -7,7 +7,9 @@ from .layout import GRID_XDMF, H5_NAME, PARTICLES_XDMF
 
 HISTORY_CSV = "history.csv"
 CHECKPOINT_H5 = "checkpoint.h5"
-OUTPUT_FILES = (H5_NAME, PARTICLES_XDMF, GRID_XDMF, HISTORY_CSV, CHECKPOINT_H5)
+#: the SHA-256 digests a checkpoint.h5 may have (pimpm.io.checkpoint)
+CHECKPOINT_SUM = "checkpoint.sha256"
+OUTPUT_FILES = (H5_NAME, PARTICLES_XDMF, GRID_XDMF, HISTORY_CSV, CHECKPOINT_H5, CHECKPOINT_SUM)
 #: every name pimpm writes in the output directory (results and their temporaries)
 ALL_NAMES = OUTPUT_FILES + tuple(f + ".tmp" for f in OUTPUT_FILES)
 
