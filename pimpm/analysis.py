@@ -386,7 +386,8 @@ def prepare_restart(config, comm, control):
         raise UsageError(f"time.end_time = {config['time']['end_time']!r}: expected a time after the "
                          f"checkpoint's t = {sim.time:.6g} (step {sim.step_index}) to continue to")
     try:
-        check_restart_files(comm, directory, sim.grid, history_columns(dim=sim.dim, **history_names(sim)))
+        check_restart_files(comm, directory, sim.grid, history_columns(dim=sim.dim, **history_names(sim)),
+                            step=sim.step_index, time=sim.time)
     except ValueError as err:
         raise UsageError(f"output.directory = {directory!r}: cannot continue its results: {err}") from None
     return sim

@@ -217,6 +217,11 @@ class Simulation:
             load.total_share = self.comm.allreduce(float(np.sum(self.particles[load.field])))
         self.time = checkpoint.time
         self.step_index = checkpoint.step
+        for key in ("last_forces", "displacements"):
+            for name, vector in checkpoint.work.get(key, {}).items():
+                if len(vector) != self.dim:
+                    raise SetupError(f"the checkpoint's work account ({key} of {name!r}: {vector}): expected "
+                                     f"{self.dim} numbers, in an intact checkpoint")
         self.work.restore(checkpoint.work)
         for term in self.terms:
             if term.name in checkpoint.terms:

@@ -1,6 +1,7 @@
 """The fuzzer of issue 32, end to end: whole runs of the command line.
 
-* **Checkpoints.** A run's ``checkpoint.h5`` gets one of its attributes, one
+* **Checkpoints.** A run's ``checkpoint.h5`` (the bar's, and with its puller
+  a frictional contact tool) gets one of its attributes, one
   key of its JSON attributes or one of its datasets corrupted (deleted,
   replaced by a value of another type, a non-finite, negative or huge
   number, another shape, a row more or less) with ``checkpoint.sha256``
@@ -41,7 +42,12 @@ from hypothesis import strategies as st  # noqa: E402
 from helpers import ROOT, mpi_env  # noqa: E402
 
 BAR = os.path.join(ROOT, "inputs", "bar_tension.yaml")
-RESTART = [BAR, "--output", "o", "--set", "output.checkpoint_every=1", "--restart"]
+#: the runs whose checkpoints are fuzzed: the bar, and the bar pushed by its
+#: puller as a frictional contact tool (its term's state and contact fields)
+RUNS = {"bar": [BAR, "--set", "output.checkpoint_every=1"],
+        "contact": [BAR, "--set", "output.checkpoint_every=1", "--set", "bodies[1].contact=friction",
+                    "--set", "bodies[1].friction_coefficient=0.3", "--set", "bodies[1].constrain=null",
+                    "--set", "bodies[1].velocity=[0.001, 0.0]"]}
 
 QUICK = settings(max_examples=200, derandomize=True, deadline=None, database=None,
                  suppress_health_check=list(HealthCheck))
@@ -85,13 +91,16 @@ def _check_contract(status, stderr, before, after, rows_before, rows_after):
 
 @pytest.fixture(scope="module")
 def checkpointed(tmp_path_factory):
-    """The bar in tension stopped after 5 of its 10 steps, a checkpoint of step 5."""
-    base = tmp_path_factory.mktemp("checkpointed")
-    proc = subprocess.run([sys.executable, "-m", "pimpm", BAR, "--output", "o", "--set",
-                           "output.checkpoint_every=1", "--set", "time.end_time=5.17"],
-                          cwd=base, env=mpi_env(), capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    return base / "o"
+    """Each of RUNS stopped after 5 of its 10 steps, a checkpoint of step 5: name -> directory."""
+    out = {}
+    for name, args in RUNS.items():
+        base = tmp_path_factory.mktemp("checkpointed")
+        proc = subprocess.run([sys.executable, "-m", "pimpm", *args, "--output", "o", "--set",
+                               "time.end_time=5.17"],
+                              cwd=base, env=mpi_env(), capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        out[name] = base / "o"
+    return out
 
 
 def _items(path):
@@ -113,8 +122,10 @@ def _items(path):
                     parsed = json.loads(value)
                 except ValueError:
                     continue
-                if isinstance(parsed, dict):
-                    items.extend(("json", key, k) for k in parsed)
+                if isinstance(parsed, dict):       # its keys, and their keys (a term's state)
+                    items.extend(("json", key, (k,)) for k in parsed)
+                    items.extend(("json", key, (k, k2)) for k, v in parsed.items() if isinstance(v, dict)
+                                 for k2 in v)
         f.visititems(visit)
     return items
 
@@ -190,12 +201,15 @@ def _corrupt(data, path):
             return f"attribute {name} {key} = {value!r}"
         elif kind == "json":
             parsed = json.loads(f.attrs[name])
+            owner = parsed
+            for k in key[:-1]:
+                owner = owner[k]
             if data.draw(st.booleans(), label="delete"):
-                del parsed[key]
+                del owner[key[-1]]
             else:
-                parsed[key] = data.draw(JSON_VALUES, label="value")
+                owner[key[-1]] = data.draw(JSON_VALUES, label="value")
             f.attrs[name] = json.dumps(parsed)
-            return f"{name} {key}: {parsed.get(key, 'deleted')!r}"
+            return f"{name} {key}: {owner.get(key[-1], 'deleted')!r}"
         else:
             old = f[name][...]
             attrs = dict(f[name].attrs)
@@ -229,9 +243,10 @@ def _in_process(directory):
 
 def _fuzz_checkpoint(data, checkpointed, work):
     from pimpm.__main__ import main
+    run = data.draw(st.sampled_from(sorted(RUNS)), label="run")
     out = os.path.join(work, "o")
     shutil.rmtree(out, ignore_errors=True)
-    shutil.copytree(checkpointed, out)
+    shutil.copytree(checkpointed[run], out)
     done = _corrupt(data, os.path.join(out, "checkpoint.h5"))
     if not done.startswith("bytes"):       # as if written so: past checkpoint.sha256, to what reads it
         from pimpm.io.checkpoint import file_digest
@@ -243,9 +258,12 @@ def _fuzz_checkpoint(data, checkpointed, work):
             f.write(f"{done}\n")
     with _in_process(work) as err:
         try:
-            status = main(list(RESTART))
+            status = main(RUNS[run] + ["--output", "o", "--restart"])
         except SystemExit as stop:        # (a restart's own exits come back as return values)
             status = stop.code
+    if os.environ.get("PIMPM_FUZZ_LOG"):
+        with open(os.environ["PIMPM_FUZZ_LOG"], "a") as f:
+            f.write(f"  -> exit status {status}\n")
     _check_contract(status, err.getvalue(), before, _snapshot(out), rows_before,
                     _history_rows(out) if status != 2 else rows_before)
 
@@ -265,14 +283,15 @@ def test_a_restart_from_a_fuzzed_checkpoint_long_run(data, checkpointed, tmp_pat
 
 
 def test_the_checkpoint_fuzzer_reaches_every_item(checkpointed):
-    """Every attribute, JSON key and dataset of the bar's checkpoint is a
-    case (the restart of a contact run adds its terms' state: see
-    tests/test_restart.py)."""
-    items = _items(os.path.join(checkpointed, "checkpoint.h5"))
+    """Every attribute, JSON key and dataset of both checkpoints is a case,
+    the contact tool's state and fields among them."""
+    items = _items(os.path.join(checkpointed["contact"], "checkpoint.h5"))
     kinds = {kind for kind, _, _ in items}
     assert kinds == {"attribute", "dataset", "json"}
-    assert ("dataset", "particles/F", None) in items and ("json", "control", "cuts") in items
+    assert ("dataset", "particles/F", None) in items and ("json", "control", ("cuts",)) in items
     assert ("attribute", "particles", "counts_per_rank") in items
+    assert ("json", "terms", ("puller", "offset")) in items
+    assert any(kind == "dataset" and "contact" in name for kind, name, _ in items)
 
 
 # -- command lines -------------------------------------------------------------
@@ -324,7 +343,7 @@ def _fuzz_command_line(data, checkpointed, work):
     argv = _command_line(data)
     out = os.path.join(work, "o")
     shutil.rmtree(out, ignore_errors=True)
-    shutil.copytree(checkpointed, out)
+    shutil.copytree(checkpointed["bar"], out)
     before, rows_before = _snapshot(work), _history_rows(out)
     proc = subprocess.run([sys.executable, "-m", "pimpm"] + argv, cwd=work, env=mpi_env(),
                           capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)

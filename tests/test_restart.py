@@ -307,8 +307,11 @@ def _link(name):
 DAMAGED = {
     "negative step": (_set_attr("step", -5), "its step is -5: expected an integer from 0 up"),
     "NaN time": (_set_attr("time", float("nan")), "its time is nan: expected a finite number >= 0"),
+    "zero ranks": (_set_attr("ranks", 0), "its ranks is 0: expected an integer from 1 up"),
     "a particle field missing": (_drop_field, "the checkpoint's particles have no F"),
     "flipped bytes": (_flip_bytes, "does not match its digest in checkpoint.sha256"),
+    "a step the history has at another time": (_set_attr("step", 3), "has no row of the checkpoint's step 3"),
+    "step 0 at a later time": (_set_attr("step", 0), "has no row of the checkpoint's step 0"),
     "a garbage history row": (_append("history.csv", "garbage,row\n"), "is not a row of"),
     "a foreign results file": (_replace("results.h5", "not HDF5\n"), "is not a readable HDF5 file"),
     "other history columns": (_replace("history.csv", "a,b\n1,2\n"), "has other columns than this run writes"),

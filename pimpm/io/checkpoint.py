@@ -232,9 +232,23 @@ def _json_mapping(value, name):
     if not isinstance(value, str):
         raise ValueError(f"its {name} attribute is {type(value).__name__}: expected JSON text")
     try:
-        return _mapping(json.loads(value), f"{name} attribute")
+        parsed = _mapping(json.loads(value), f"{name} attribute")
     except json.JSONDecodeError as err:
         raise ValueError(f"its {name} attribute is not JSON ({err})") from None
+    _finite(parsed, f"{name} attribute")
+    return parsed
+
+
+def _finite(value, name):
+    """Every number in a parsed JSON value finite (JSON's NaN and Infinity are not)."""
+    if isinstance(value, dict):
+        for v in value.values():
+            _finite(v, name)
+    elif isinstance(value, list):
+        for v in value:
+            _finite(v, name)
+    elif isinstance(value, float) and not np.isfinite(value):
+        raise ValueError(f"its {name} holds {value}: expected finite numbers")
 
 
 def _check_layout(f, ranks):

@@ -12,17 +12,19 @@ from .hdf5 import same_grid, step_records
 from .layout import H5_NAME
 
 
-def check_restart_files(comm, directory, grid, history_columns):
+def check_restart_files(comm, directory, grid, history_columns, step=None, time=None):
     """Check, as a restart will read them, the output files of ``directory``
     that it continues: none is a symbolic link (a fresh run refuses them
     too); ``results.h5`` (if there) describes ``grid``'s nodes and its steps
     are readable; ``history.csv`` (if there) has ``history_columns`` and a
-    row of numbers per step. Collective: ValueError on every rank, naming
-    the file and what is wrong."""
+    row of numbers per step, among them the checkpoint's ``step`` at its
+    ``time`` (a checkpoint that disagrees with the history it continues
+    would drop or rewrite rows the history holds). Collective: ValueError on
+    every rank, naming the file and what is wrong."""
     problem = None
     if comm.rank == 0:
         try:
-            _check(directory, grid, history_columns)
+            _check(directory, grid, history_columns, step, time)
         except (OSError, KeyError, ValueError, TypeError) as err:
             problem = str(err)
     problem = comm.bcast(problem)
@@ -30,7 +32,7 @@ def check_restart_files(comm, directory, grid, history_columns):
         raise ValueError(problem)
 
 
-def _check(directory, grid, history_columns):
+def _check(directory, grid, history_columns, step, time):
     problem = write_problem(directory)
     if problem:
         raise ValueError(problem)
@@ -44,7 +46,7 @@ def _check(directory, grid, history_columns):
         _check_results(results, grid)
     history = os.path.join(directory, HISTORY_CSV)
     if os.path.exists(history):
-        _check_history(history, history_columns)
+        _check_history(history, history_columns, step, time)
 
 
 def _check_results(path, grid):
@@ -66,7 +68,7 @@ def _check_results(path, grid):
             raise ValueError(f"{path!r}: step {record['name']} has step {record['step']}, time {record['time']}")
 
 
-def _check_history(path, columns):
+def _check_history(path, columns, checkpoint_step=None, checkpoint_time=None):
     with open(path, newline="") as f:
         try:
             rows = list(csv.reader(f))
@@ -75,6 +77,7 @@ def _check_history(path, columns):
     if not rows or rows[0] != list(columns):
         raise ValueError(f"{path!r} has other columns than this run writes (its first line: "
                          f"{','.join(rows[0])[:80] if rows else 'none'})")
+    found = None                               # the time of the checkpoint's step's row
     for number, row in enumerate(rows[1:], start=2):
         if not row:
             continue
@@ -87,3 +90,12 @@ def _check_history(path, columns):
             raise ValueError(f"{path!r} line {number} is not a row of {len(columns)} numbers") from None
         if step < 0 or not math.isfinite(values[0]):
             raise ValueError(f"{path!r} line {number}: step {row[0]}, time {row[1]}")
+        if step == checkpoint_step:
+            found = values[0]
+    if checkpoint_step is None:
+        return
+    if checkpoint_step == 0:
+        found = 0.0
+    if found is None or not math.isclose(found, checkpoint_time, rel_tol=1e-12, abs_tol=1e-300):
+        raise ValueError(f"{path!r} has no row of the checkpoint's step {checkpoint_step} at its time "
+                         f"{checkpoint_time:.9g}: expected the history of the run that wrote the checkpoint")

@@ -373,5 +373,8 @@ class ContactTool(NodalTerm):
         return {"offset": [float(v) for v in self.offset], "dissipation": self.dissipation}
 
     def restore(self, state):
-        self.offset = np.asarray(state["offset"], dtype=float)
+        offset = np.asarray(state["offset"], dtype=float)
+        if offset.shape != self.offset.shape or not np.all(np.isfinite(offset)):
+            raise ValueError(f"offset {state['offset']!r}: expected {len(self.offset)} finite numbers")
+        self.offset = offset
         self.dissipation = float(state.get("dissipation", 0.0))
