@@ -456,6 +456,8 @@ def _read_particle_file(path, dim):
                 rows = [r for r in csv.reader(f) if r and not r[0].lstrip().startswith("#")]
         except (OSError, UnicodeDecodeError) as err:
             raise GeometryFileError(f"cannot be read ({err})") from None
+        except csv.Error as err:           # a field of more than 131072 characters, a NUL byte
+            raise GeometryFileError(f"is not a CSV file of numbers ({err})") from None
         if not rows:
             raise GeometryFileError(f"is empty: expected a CSV header {', '.join(axes)}, volume")
         header = [h.strip().lower() for h in rows[0]]

@@ -707,3 +707,20 @@ def test_fallback_max_dofs_takes_a_positive_integer_or_auto():
                 with_command_line(validate(base()))
     finally:
         db.delValue("pimpm_fallback_max_dofs")
+
+
+def test_an_integer_beyond_the_float_range_is_shown_by_its_size():
+    """youngs_modulus: 10**400 printed its 401 digits in the message (issue 32's
+    reliability table); it is shown as 1.000e+400 (an integer) now."""
+    import os
+
+    from helpers import ROOT
+    from pimpm.config.checks import _fmt
+    assert _fmt(10 ** 400) == "1.000e+400 (an integer)"
+    assert _fmt(-(10 ** 30) - 7) == "-1.000e+30 (an integer)"
+    assert _fmt(2 ** 63) == "9223372036854775808"
+    raw = yaml.safe_load(open(os.path.join(ROOT, "inputs", "bar_tension.yaml")))
+    raw["materials"]["elastic"]["youngs_modulus"] = 10 ** 400
+    with pytest.raises(ConfigError) as err:
+        validate(raw, base_dir=os.path.join(ROOT, "inputs"))
+    assert "youngs_modulus = 1.000e+400 (an integer): expected" in str(err.value)

@@ -313,6 +313,16 @@ def test_a_particle_file_gives_the_boxs_answer(tmp_path):
         np.testing.assert_allclose(ref.particles["x"][a], cloud.particles["x"][b], rtol=0, atol=1e-12)
 
 
+def test_a_particle_csv_that_the_csv_reader_refuses_is_one_clear_error(tmp_path):
+    """A field of more than 131072 characters made Python's csv reader
+    raise csv.Error, a traceback (issue 32's over-long lines; found by
+    scripts/reliability_table.py)."""
+    (tmp_path / "p.csv").write_text("x,y,volume\n0.5,0.1," + "1" * 200000 + "\n")
+    with pytest.raises(meshes.GeometryFileError) as err:
+        meshes._read_particle_file(str(tmp_path / "p.csv"), 2)
+    assert "is not a CSV file of numbers" in str(err.value)
+
+
 def test_a_rigid_body_from_a_mesh(tmp_path):
     """A meshed rigid die pushed into a block moves as told and reports a force."""
     points, tris = box_mesh([0.75, 1.6], [1.75, 1.85], [4, 1], "triangle")

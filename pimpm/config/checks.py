@@ -42,6 +42,9 @@ def _fmt_inner(value):
     if isinstance(value, str):
         return repr(value)
     if isinstance(value, numbers.Integral):
+        digits = str(abs(int(value)))
+        if len(digits) > 24:                  # an integer beyond the float range: its size, not its digits
+            return f"{'-' if value < 0 else ''}{digits[0]}.{digits[1:4]}e+{len(digits) - 1} (an integer)"
         return str(int(value))
     if isinstance(value, numbers.Real):
         return repr(float(value))
