@@ -296,6 +296,8 @@ def read_checkpoint(directory, comm):
     path = os.path.join(directory, CHECKPOINT_H5)
     if os.path.islink(path):
         raise OSError(f"{path} is a symbolic link")
+    if not os.path.isfile(path):
+        raise OSError(f"there is no {path}")
     problem = comm.bcast(digest_problem(directory) if comm.rank == 0 else None)
     if problem:                            # before HDF5 opens it
         raise ValueError(problem)
