@@ -129,12 +129,12 @@ def main():
             print(f"| {r['tool']} | {r['steps']} | {r['largest force']:.6g} | {r['force after release']:.3g} | "
                   f"{r['difference from the box']:.1e} |")
         billet_rows = billet(work, args.ranks, args.repeats)
-        print(f"\n| billet platen (mu 0.3, {args.ranks} ranks) | steps | cuts | Newton | force at 50% (N per cm) "
+        print(f"\n| billet platen (mu 0.3, {args.ranks} ranks) | steps | cuts | Newton | force at 50% (dyn per cm) "
               f"| difference | wall (s) | / box |")
         print("|---|---|---|---|---|---|---|---|")
         for r in billet_rows:
             print(f"| {r['tool']} | {r['steps']} | {r['step cuts']} | {r['newton']} | "
-                  f"{r['force at 50% (N per cm)']:.6g} | {r['force difference from the box']:.1e} | "
+                  f"{r['force at 50% (dyn per cm)']:.6g} | {r['force difference from the box']:.1e} | "
                   f"{r['wall (s, median)']:.1f} | {r['wall / box']:.2f} |")
     if args.json:
         with open(args.json, "w") as f:

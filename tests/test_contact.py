@@ -547,13 +547,17 @@ def test_a_frictional_platen_on_the_billet_approaches_bonded_as_mu_grows():
     the bonded platen's; the tangential force stays within mu times the
     normal force; with mu = 0.1 the bulging side folds onto the platen and
     presses on it through the contact law (the contact length grows beyond
-    the 20 cm top face)."""
+    the 20 cm top face). Newton takes at most 7 iterations a step on average
+    at every mu (6.0 at mu = 0.3; 8.7 when the step's first Jacobian held the
+    touching corners in the normal direction only: every corner slipped in
+    the first iterate)."""
     forces, barrels, lengths = [], [], []
     for mu in (0.1, 0.3, 1.0, None):
         contact = (["bodies[1].contact=bonded"] if mu is None else
                    ["bodies[1].contact=friction", f"bodies[1].friction_coefficient={mu}"])
         sim, stats, rows = _run(f"{REPO}/inputs/billet.yaml", ["grid.cells=[40, 21]"] + contact)
         assert stats.cuts == 0 and stats.failure is None
+        assert stats.newton <= 7 * len(rows), (mu, stats.newton, len(rows))
         mid, upper, _ = _barrel(sim)
         forces.append(-rows[-1]["force"][1])
         barrels.append(mid - upper)
