@@ -167,7 +167,9 @@ class Simulation:
     def _check_fields(self, sets):
         """A problem of this rank's checkpointed particles, or None: a field
         missing or of another shape or type, a body index out of range, a
-        particle outside the grid or without mass, volume or size."""
+        particle outside the grid, without mass or volume, with det F <= 0 or
+        a GIMP half-width beyond the grid (seeding clips it to the grid's edge;
+        a mesh element's particle may be wider than a cell)."""
         lower, upper = self.grid.lower, self.grid.upper
         for name, spec in self._field_shapes().items():
             data = sets[name]
@@ -187,8 +189,8 @@ class Simulation:
                 return f"the checkpoint's {name} are not all inside the grid"
             if np.any(body < 0) or np.any(body >= len(self.body_names)):
                 return f"the checkpoint's {name}' body indices are not all bodies of the input"
-            if np.any(data["half_size"] < 0.0) or np.any(data["half_size"] > self.grid.spacing):
-                return f"the checkpoint's {name}' half_size are not all in [0, one cell]"
+            if np.any(data["half_size"] < 0.0) or np.any(data["half_size"] > upper - lower):
+                return f"the checkpoint's {name}' half_size are not all in [0, the grid's size]"
         p = sets["particles"]
         if np.any(p["mass"] <= 0.0) or np.any(p["volume0"] <= 0.0):
             return "the checkpoint's particles do not all have a positive mass and volume"

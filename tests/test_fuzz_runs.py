@@ -49,14 +49,11 @@ RUNS = {"bar": [BAR, "--set", "output.checkpoint_every=1"],
                     "--set", "bodies[1].friction_coefficient=0.3", "--set", "bodies[1].constrain=null",
                     "--set", "bodies[1].velocity=[0.001, 0.0]"]}
 
+from test_fuzz import LONG, long_run  # noqa: E402  (the long run's settings: PIMPM_FUZZ_EXAMPLES)
+
 QUICK = settings(max_examples=200, derandomize=True, deadline=None, database=None,
                  suppress_health_check=list(HealthCheck))
-CLI_QUICK = settings(max_examples=12, derandomize=True, deadline=None, database=None,
-                     suppress_health_check=list(HealthCheck))
-LONG_EXAMPLES = int(os.environ.get("PIMPM_FUZZ_EXAMPLES", "0"))
-LONG = settings(max_examples=max(LONG_EXAMPLES, 1), deadline=None, database=None,
-                suppress_health_check=list(HealthCheck))
-long_run = pytest.mark.skipif(LONG_EXAMPLES <= 0, reason="set PIMPM_FUZZ_EXAMPLES for the long run")
+CLI_QUICK = settings(QUICK, max_examples=12)
 
 
 def _snapshot(directory):
