@@ -548,7 +548,7 @@ def test_a_frictional_platen_on_the_billet_approaches_bonded_as_mu_grows():
     normal force; with mu = 0.1 the bulging side folds onto the platen and
     presses on it through the contact law (the contact length grows beyond
     the 20 cm top face). Newton takes at most 7 iterations a step on average
-    at every mu (6.0 at mu = 0.3; 8.7 when the step's first Jacobian held the
+    at every mu (6.2 at mu = 0.3; 8.7 when the step's first Jacobian held the
     touching corners in the normal direction only: every corner slipped in
     the first iterate)."""
     forces, barrels, lengths = [], [], []

@@ -504,14 +504,16 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
     (``elastic``, the next step's ``history``), so a sticking point does not
     creep. ``hold``: the point was in contact at the end of the last step;
     if it is open now but within ``stick`` of the tool, D gets the penalty's
-    normal stiffness -kn a n n^T all the same, and with friction the capped
-    tangential one -kt a (I - n n^T) (status HELD, no force): the first
-    Newton iteration of a step, whose predictor may lift a resting corner
-    off the tool by round-off, then neither throws the body away nor lets
-    it slide freely where it held (without the tangential part every corner
-    of the frictional billet slipped in the first iterate and Newton found
-    the stick zone again a few corners an iteration: 9.9 iterations a step
-    against 6.8; docs/VALIDATION.md).
+    normal stiffness -kn a n n^T all the same, and if it stuck (``hold`` ==
+    STICK, mu > 0) the capped tangential one -kt a (I - n n^T) (status
+    HELD, no force): the first Newton iteration of a step, whose predictor
+    may lift a resting corner off the tool by round-off, then neither throws
+    the body away nor lets it slide freely where it stuck (without the
+    tangential part every corner of the frictional billet slipped in the
+    first iterate and Newton found the stick zone again a few corners an
+    iteration: 9.9 iterations a step against 7.0; holding the corners that
+    slipped too took 6.8 on the billet but inverted a particle of the
+    linear-shape upsetting; docs/VALIDATION.md).
     ``applied`` >= 0: the pressure is this (the explicit step's, applied at
     its trial state: :meth:`pimpm.terms.contact.ContactTool.settle`), not
     the penalty's at ``y``; 0 is open.
@@ -532,7 +534,7 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
         phi = -applied / kn
     if not phi <= 0.0:                        # touching (phi = 0, as placed on a tool) is in contact
         if hold and phi < stick:
-            held_kt = kt if friction else 0.0
+            held_kt = kt if friction and mu > 0.0 and hold == STICK else 0.0
             for a in range(dim):
                 for b in range(dim):
                     D[a, b] = -area * kn * n[a] * n[b] - area * held_kt * ((1.0 if a == b else 0.0) - n[a] * n[b])

@@ -35,6 +35,7 @@ APPLIED = ("force", "pressure", "traction", "corner_force")
 #: the explicit step's stick length, in cells: so short that a sticking point's
 #: stiffness is always the cap (the explicit penalty), see ContactTool._evaluate_with
 STICK_EXPLICIT = 1e-9
+#: each corner's state at the end of the last step (kernels.contact OPEN, STICK or SLIP)
 TOUCHING_FIELD = "contact_touching_{}"
 
 
@@ -164,8 +165,9 @@ class ContactTool(NodalTerm):
         self._cand = {"node_index": node_index, "active": active, "x": x, "history": self._history[c]}
         self._step = (state, W, offsets, area)
         self._u = None
-        # the first Jacobian holds the corners that were touching (kernels.contact.HELD)
-        self._held = self._touching[c].astype(bool)
+        # the first Jacobian holds the corners that were touching (kernels.contact.HELD),
+        # tangentially too where they stuck
+        self._held = self._touching[c].copy()        # (its status then: STICK or SLIP)
         self._holding = bool(np.any(self._held))
 
     def _evaluate(self, u_local, applied=None):
@@ -356,7 +358,8 @@ class ContactTool(NodalTerm):
         c = self._candidates                 # the others are not in contact: zero
         status = self._local["status"]
         fields = {self.field: self._local["elastic"],
-                  self.touching_field: ((status == kernels.STICK) | (status == kernels.SLIP)).astype(np.int8),
+                  self.touching_field: np.where((status == kernels.STICK) | (status == kernels.SLIP), status,
+                                                kernels.OPEN).astype(np.int8),
                   # what the output shows of the step: each particle's state (0 open, 1 stick,
                   # 2 slip: of its corners that press, the one that slips wins) and the force on it
                   self.output_fields[0]: np.max(np.where(self._local["pressure"] > 0.0, status, kernels.OPEN),
