@@ -19,7 +19,7 @@ Writes docs/data/convergence_study.json (or --json PATH), merged with what the
 file already holds (entries for other shape functions or studies are kept).
 
     mpiexec -n 2 python scripts/convergence_study.py [--column] [--billet]
-        [--shapes linear gimp bspline] [--sizes 1 0.5 0.25]
+        [--shapes linear gimp bspline] [--sizes 1 0.5 0.25] [--f-bar]
 """
 import argparse
 import json
@@ -69,10 +69,13 @@ def column_study(shapes, cells=(10, 20, 40, 80)):
     return out
 
 
-def billet(h, travel_per_step, shape):
+def billet(h, travel_per_step, shape, f_bar=False):
     """coarse_billet at cell size h (cm): the grid and bodies keep their
-    size in cm, cells scale; the platen moves ``travel_per_step`` cells per step."""
+    size in cm, cells scale; the platen moves ``travel_per_step`` cells per step;
+    ``f_bar``: every material with F-bar (pimpm/fbar.py)."""
     raw = coarse_billet("quasi_static")
+    for material in raw["materials"].values():
+        material["f_bar"] = bool(f_bar)
     scale = int(round(1.0 / h))
     raw["grid"]["cells"] = [36 * scale, 22 * scale]
     raw["grid"]["shape_functions"] = shape
@@ -98,24 +101,25 @@ class AtMarks(Observer):
                               "j_drift": drift})
 
 
-def billet_study(shapes, sizes):
+def billet_study(shapes, sizes, f_bar=False):
     out = {}
     for shape in shapes:
+        label = f"{shape}, f_bar" if f_bar else shape
         runs = {}
         for h in sizes:
             for travel in (0.5, 0.25):
-                raw = billet(h, travel, shape)
+                raw = billet(h, travel, shape, f_bar)
                 marks = AtMarks(h / 4.0)
                 sim, stats, status = run_to_end(validate(raw), observers=[marks])
                 runs[(h, travel)] = {"h": h, "travel_per_step": travel, "steps": sim.step_index,
                                      "newton": stats.newton, "failed": stats.failure, "marks": marks.rows}
                 last = marks.rows[-1] if marks.rows else None
-                say(f"billet {shape} h {h:g} travel {travel:g} cell/step: {sim.step_index} steps"
+                say(f"billet {label} h {h:g} travel {travel:g} cell/step: {sim.step_index} steps"
                     + (f", bulge at 50% {last['bulge']:.4f} cm, force {last['force']:.5e}, "
                        f"J drift {100 * last['j_drift']:+.3f}% ({100 * last['j_drift'] / last['step']:+.4f}% per step)"
                        if last and len(marks.rows) == len(MARKS) else f", failed: {stats.failure}"))
-        out[shape] = [dict(r) for r in runs.values()]
-        report(shape, runs, sizes)
+        out[label] = [dict(r) for r in runs.values()]
+        report(label, runs, sizes)
     return out
 
 
@@ -150,6 +154,7 @@ def main():
     ap.add_argument("--billet", action="store_true")
     ap.add_argument("--shapes", nargs="+", default=["linear", "gimp", "bspline"])
     ap.add_argument("--sizes", type=float, nargs="+", default=[1.0, 0.5, 0.25])
+    ap.add_argument("--f-bar", action="store_true", help="the billet with F-bar (entries 'SHAPE, f_bar')")
     ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "convergence_study.json"))
     args = ap.parse_args()
     if not (args.column or args.billet):
@@ -158,7 +163,7 @@ def main():
     if args.column:
         result["column"] = column_study(args.shapes)
     if args.billet:
-        result["billet"] = billet_study(args.shapes, args.sizes)
+        result["billet"] = billet_study(args.shapes, args.sizes, args.f_bar)
     from mpi4py import MPI
     if MPI.COMM_WORLD.rank == 0:
         # merge into the existing file: the shapes (and studies) not run keep their entries
