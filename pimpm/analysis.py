@@ -403,7 +403,7 @@ def open_checkpoint(config, comm):
     except (OSError, KeyError, ValueError) as err:
         raise UsageError(f"output.directory = {directory!r}: no usable checkpoint.h5 to restart from "
                          f"({err}): expected the directory of a run that wrote one") from None
-    saved = json.loads(checkpoint.physics)
+    saved = checkpoint.physics
     now = json.loads(physics_json(config))
     for key in PHYSICS_KEYS:
         if saved.get(key) != now.get(key):

@@ -60,7 +60,7 @@ class Simulation:
         self.shape = make_shape(g["shape_functions"], dim)
         same_layout = checkpoint is not None and checkpoint.same_ranks
         if same_layout:
-            self._check_layout(checkpoint, np.asarray(g["cells"]) + 1)
+            self._check_ownership_ranges(checkpoint, np.asarray(g["cells"]) + 1)
         self.grid = Grid(comm, g["lower"], g["upper"], g["cells"], stencil_width=self.shape.stencil_width,
                          ownership_ranges=checkpoint.ownership_ranges if same_layout else None,
                          proc_sizes=checkpoint.proc_sizes if same_layout else None)
@@ -124,19 +124,27 @@ class Simulation:
             return
         self._make_solver()
 
-    def _add_term_fields(self):
+    def _term_fields(self):
         """The particle fields the contact tools carry from step to step (each
-        domain corner's elastic slip and whether it touched), zero where a run starts."""
-        corners = 1 << self.dim
+        domain corner's elastic slip and state, each particle's status and
+        force): name -> (shape of one particle's value, dtype)."""
+        dim, corners = self.dim, 1 << self.dim
+        fields = {}
         for term in self.terms:
-            field = getattr(term, "field", None)
-            if field is not None and field not in self.particles:
-                self.particles[field] = np.zeros((len(self.particles), corners, self.dim))
-                self.particles[term.touching_field] = np.zeros((len(self.particles), corners), dtype=np.int8)
-                self.particles[term.output_fields[0]] = np.zeros(len(self.particles), dtype=np.int8)
-                self.particles[term.output_fields[1]] = np.zeros((len(self.particles), self.dim))
+            if getattr(term, "field", None) is not None:
+                fields.update({term.field: ((corners, dim), np.float64),
+                               term.touching_field: ((corners,), np.int8),
+                               term.output_fields[0]: ((), np.int8),
+                               term.output_fields[1]: ((dim,), np.float64)})
+        return fields
 
-    def _check_layout(self, checkpoint, nodes):
+    def _add_term_fields(self):
+        """The contact tools' particle fields, zero where a run starts."""
+        for name, (shape, dtype) in self._term_fields().items():
+            if name not in self.particles:
+                self.particles[name] = np.zeros((len(self.particles),) + shape, dtype=dtype)
+
+    def _check_ownership_ranges(self, checkpoint, nodes):
         """The checkpoint's ownership ranges cover the grid's nodes, each at
         least a stencil wide (a DMDA would stop some ranks otherwise)."""
         ranges = checkpoint.ownership_ranges
@@ -146,23 +154,22 @@ class Simulation:
                              f"do not split the grid's {nodes.tolist()} nodes: expected an intact checkpoint")
 
     def _field_shapes(self):
-        """Each particle set's fields a checkpoint of this input holds: name ->
-        (shape of one particle's value, dtype kind: 'f' float, 'i' integer)."""
-        dim, corners = self.dim, 1 << self.dim
-        vector, tensor = ((dim,), "f"), ((3, 3), "f")
-        scalar, index = ((), "f"), ((), "i")
-        particles = {"x": vector, "x0": vector, "v": vector, "a": vector, "F": tensor, "stress": tensor,
-                     "volume0": scalar, "mass": scalar, "half_size": vector, "body": index, "id": index,
-                     "surface": ((2 * dim,), "f")}
+        """Each particle set's fields a checkpoint of this input holds (the
+        seeded ones, MATERIAL_FIELDS and RIGID_FIELDS, the materials' history,
+        the loads' shares, the contact tools' fields): name -> (shape of one
+        particle's value, dtype kind: 'f' float, 'i' integer)."""
+        dim = self.dim
+        vector, scalar, index = ((dim,), "f"), ((), "f"), ((), "i")
+        seeded = {"x": vector, "x0": vector, "v": vector, "a": vector, "F": ((3, 3), "f"),
+                  "stress": ((3, 3), "f"), "volume0": scalar, "mass": scalar, "half_size": vector,
+                  "body": index, "id": index, "surface": ((2 * dim,), "f")}
+        particles = {name: seeded[name] for name in MATERIAL_FIELDS}
         for material in self.materials:
             particles.update({"h_" + k: (tuple(shape), "f") for k, shape in material.model.history.items()})
         particles.update({load.field: scalar for load in self.loads})
-        for term in self.terms:
-            if getattr(term, "field", None) is not None:
-                particles.update({term.field: ((corners, dim), "f"), term.touching_field: ((corners,), "i"),
-                                  term.output_fields[0]: index, term.output_fields[1]: vector})
-        rigid = {"x": vector, "x0": vector, "v": vector, "body": index, "id": index, "half_size": vector}
-        return {"particles": particles, "rigid": rigid}
+        particles.update({name: (shape, np.dtype(dtype).kind)
+                          for name, (shape, dtype) in self._term_fields().items()})
+        return {"particles": particles, "rigid": {name: seeded[name] for name in RIGID_FIELDS}}
 
     def _check_fields(self, sets):
         """A problem of this rank's checkpointed particles, or None: a field

@@ -157,8 +157,8 @@ class Checkpoint:
         self.step = _integer(attrs["step"], "step", 0)
         self.time = _number(attrs["time"], "time", 0.0)
         self.ranks = _integer(attrs["ranks"], "ranks", 1)
-        self.physics = attrs["physics"]
-        _json_mapping(self.physics, "physics")
+        #: the physical part of the input (PHYSICS_KEYS), as read
+        self.physics = _json_mapping(attrs["physics"], "physics")
         self.control = _json_mapping(attrs["control"], "control")
         for key in ("dt", "target", "initial"):
             if _key(self.control, key, "control") is not None:

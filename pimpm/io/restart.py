@@ -12,7 +12,7 @@ from .hdf5 import same_grid, step_records
 from .layout import H5_NAME
 
 
-def check_restart_files(comm, directory, grid, history_columns, step=None, time=None):
+def check_restart_files(comm, directory, grid, history_columns, step, time):
     """Check, as a restart will read them, the output files of ``directory``
     that it continues: none is a symbolic link (a fresh run refuses them
     too); ``results.h5`` (if there) describes ``grid``'s nodes and its steps
@@ -68,7 +68,7 @@ def _check_results(path, grid):
             raise ValueError(f"{path!r}: step {record['name']} has step {record['step']}, time {record['time']}")
 
 
-def _check_history(path, columns, checkpoint_step=None, checkpoint_time=None):
+def _check_history(path, columns, checkpoint_step, checkpoint_time):
     with open(path, newline="") as f:
         try:
             rows = list(csv.reader(f))
@@ -92,8 +92,6 @@ def _check_history(path, columns, checkpoint_step=None, checkpoint_time=None):
             raise ValueError(f"{path!r} line {number}: step {row[0]}, time {row[1]}")
         if step == checkpoint_step:
             found = values[0]
-    if checkpoint_step is None:
-        return
     if checkpoint_step == 0:
         found = 0.0
     if found is None or not math.isclose(found, checkpoint_time, rel_tol=1e-12, abs_tol=1e-300):
