@@ -126,7 +126,7 @@ class Simulation:
 
     def _term_fields(self):
         """The particle fields the contact tools carry from step to step (each
-        domain corner's elastic slip and state, each particle's status and
+        domain corner's elastic slip, state and depth, each particle's status and
         force): name -> (shape of one particle's value, dtype)."""
         dim, corners = self.dim, 1 << self.dim
         fields = {}
@@ -134,6 +134,7 @@ class Simulation:
             if getattr(term, "field", None) is not None:
                 fields.update({term.field: ((corners, dim), np.float64),
                                term.touching_field: ((corners,), np.int8),
+                               term.depth_field: ((corners,), np.float64),
                                term.output_fields[0]: ((), np.int8),
                                term.output_fields[1]: ((dim,), np.float64)})
         return fields
@@ -203,6 +204,9 @@ class Simulation:
             return "the checkpoint's particles do not all have a positive mass and volume"
         if np.any(np.linalg.det(p["F"]) <= 0.0):
             return "the checkpoint's particles' deformation gradients F do not all have det F > 0"
+        for term in self.contact_tools:
+            if np.any(p[term.depth_field] < 0.0):
+                return f"the checkpoint's particles' {term.depth_field} are not all >= 0"
         return None
 
     def _restore(self, checkpoint):

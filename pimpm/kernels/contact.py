@@ -801,10 +801,11 @@ def contact_diagonal(node_index, W, D, status, out_local):
 
 
 @jit
-def push_out(kind, params, node_index, W, x, offsets, u_local, offset_end, faces, depth, moved, weight):
+def push_out(kind, params, node_index, W, x, offsets, u_local, offset_end, faces, target, depth, moved, weight):
     """The contact predictor's sums: for every corner deeper than ``depth``
-    inside the tool at ``u_local``, the displacement that would bring it back to the surface
-    (-phi n), added to its particle's nodes with the weights |w_cI|
+    below its ``target`` distance (n, corners; <= 0) inside the tool at
+    ``u_local``, the displacement that would bring it back to that distance
+    ((target - phi) n), added to its particle's nodes with the weights |w_cI|
     (``moved`` += |w| d, ``weight`` += |w|; ghosted-local)."""
     n_particles, corners, nn = W.shape
     dim = x.shape[1]
@@ -816,7 +817,7 @@ def push_out(kind, params, node_index, W, x, offsets, u_local, offset_end, faces
         for c in range(corners):
             _corner_at(W, node_index, u_local, x, offsets, offset_end, p, c, dim, y, travel)
             phi = tool_distance(kind, params, y, dim, n, H, faces[p])
-            if not phi < -depth:
+            if not phi < target[p, c] - depth:
                 continue
             for k in range(nn):
                 w = abs(W[p, c, k])
@@ -825,7 +826,7 @@ def push_out(kind, params, node_index, W, x, offsets, u_local, offset_end, faces
                 i = node_index[p, k]
                 weight[i] += w
                 for a in range(dim):
-                    moved[i, a] -= w * phi * n[a]
+                    moved[i, a] += w * (target[p, c] - phi) * n[a]
 
 
 @jit

@@ -37,6 +37,9 @@ APPLIED = ("force", "pressure", "traction", "corner_force")
 STICK_EXPLICIT = 1e-9
 #: each corner's state at the end of the last step (kernels.contact OPEN, STICK or SLIP)
 TOUCHING_FIELD = "contact_touching_{}"
+#: each corner's penetration at the end of the last step (p / k_n; 0: open): the
+#: depth the next step's predictor keeps (ContactTool.predict)
+DEPTH_FIELD = "contact_depth_{}"
 
 
 def geometry_code(geometry, dim, h):
@@ -92,6 +95,7 @@ class ContactTool(NodalTerm):
         self.h = h
         self.field = SLIP_FIELD.format(index)
         self.touching_field = TOUCHING_FIELD.format(index)
+        self.depth_field = DEPTH_FIELD.format(index)
         #: the particle fields of the last step's contact state and force, for the output
         self.output_fields = (f"contact_status_{index}", f"contact_force_{index}")
         self.offset = np.zeros(dim)                  # the tool's displacement so far
@@ -127,6 +131,7 @@ class ContactTool(NodalTerm):
         self._density = particles["mass"] / particles["volume0"]
         self._grid, self._comm = context.grid, context.grid.comm
         self._touching = particles[self.touching_field]
+        self._depth = particles[self.depth_field]
         self._step = None
         self._u = None
 
@@ -162,6 +167,10 @@ class ContactTool(NodalTerm):
         kernels.corner_areas(self.kind, self.params, x, offsets, half,
                              self.offset + self._increment, self.axisymmetric, faces, area)
         self._faces = faces
+        # a corner resting on a frictional tool deeper than the stick length keeps its
+        # depth in the predictor (:meth:`predict`)
+        depth = self._depth[c]
+        self._start_depth = np.where(depth > self.stick, -depth, 0.0) if self.friction else np.zeros((n, corners))
         self._cand = {"node_index": node_index, "active": active, "x": x, "history": self._history[c]}
         self._step = (state, W, offsets, area)
         self._u = None
@@ -235,22 +244,39 @@ class ContactTool(NodalTerm):
 
     def predict(self, u_owned, grid, fixed):
         """The contact predictor: the Newton guess ``u_owned`` with the
-        nodes under corners that it pushes into the tool deeper than the
-        stick length (a thousandth of a cell: deeper than a resting corner's
-        own penetration, p h / (contact_stiffness M), at pressures below a
-        tenth of M) moved back out
-        along the tool's normal (each node by the |w|-weighted mean of its
-        corners' way out; prescribed dofs kept). Only the guess: the
-        converged answer does not depend on it. A platen that moves half a
-        cell into a body at rest otherwise starts Newton with a penalty
-        force of k_n h / 2 per area (1e7 times the flow stress in the
-        upsetting), and the first steps inverted particles. Collective."""
+        nodes under corners that it pushes into the tool by more than the
+        stick length (a thousandth of a cell) beyond their depth at the start
+        of the step moved back out to that depth along the tool's normal
+        (each node by the |w|-weighted mean of its corners' way out;
+        prescribed dofs kept). Only the guess: the converged answer does not
+        depend on it. A platen that moves half a cell into a body at rest
+        otherwise starts Newton with a penalty force of k_n h / 2 per area
+        (1e7 times the flow stress in the upsetting), and the first steps
+        inverted particles.
+
+        The depth kept: a frictional tool's corner that rested deeper than
+        the stick length at the end of the last step (its p / k_n) keeps that
+        depth; every other corner is pushed out to the surface. Pushing the
+        deep ones out too threw their pressure away, so the first iterate let
+        them slip, and Newton found the stick zone again a few corners an
+        iteration (the 0.5 cm frictional billet, mu = 0.3, 2 ranks: 280
+        Newton iterations, 236 now; docs/PERFORMANCE.md). Keeping every
+        frictional corner's depth (p / k_n below the stick length too: the
+        steel of the upsetting rests 4e-5 cells deep) took 220 there, but
+        the first Newton direction then met the slip tangent's coupling
+        mu k_n e n^T at corners over weakly held nodes and inverted
+        particles (the 1 mm upsetting with linear shape functions and
+        mu = 0.1 failed; with GIMP and mu = 0.3 a step was cut); without
+        friction the pressure comes back in one iteration, and keeping it
+        tipped two marginal runs the other way (the frictionless upsetting
+        at 2 mm with linear shape functions failed; the plate that lets go
+        at 0.05 m and dt = 0.5 took a cut). Collective."""
         state, W, offsets, area = self._step
         moved = np.zeros((grid.n_local_nodes, self.dim))
         weight = np.zeros(grid.n_local_nodes)
         kernels.push_out(self.kind, self.params, self._cand["node_index"], W, self._cand["x"], offsets,
                          grid.owned_to_local(u_owned), self.offset + self._increment, self._faces,
-                         self.stick, moved, weight)
+                         self._start_depth, self.stick, moved, weight)
         moved = grid.sum_to_owned(moved)
         weight = grid.sum_scalar_to_owned(weight)             # repeated per component
         push = np.where(weight > 0.0, moved / np.where(weight > 0.0, weight, 1.0), 0.0)
@@ -360,6 +386,7 @@ class ContactTool(NodalTerm):
         fields = {self.field: self._local["elastic"],
                   self.touching_field: np.where((status == kernels.STICK) | (status == kernels.SLIP), status,
                                                 kernels.OPEN).astype(np.int8),
+                  self.depth_field: self._local["pressure"] / self.kn,
                   # what the output shows of the step: each particle's state (0 open, 1 stick,
                   # 2 slip: of its corners that press, the one that slips wins) and the force on it
                   self.output_fields[0]: np.max(np.where(self._local["pressure"] > 0.0, status, kernels.OPEN),
