@@ -414,7 +414,7 @@ def test_friction_gives_the_same_answer_on_1_to_4_ranks(nranks, tmp_path):
     """The friction onset (stick until t = 1 s, then slip) on 1 and on 2, 3
     and 4 ranks (a 2x2 process grid) with the direct solver: the tool's
     forces, the dissipation and the kinetic energy agree to 1e-8 (measured
-    1.5e-10 at most). The block is made a thousand times softer than the
+    1.5e-10 at most). The block is made ten thousand times softer than the
     input's (E = 20 MPa): the input's steel block strains by 5e-9 under its
     1000 N, and Newton's residual stalls at 2e-6 of its first value (round-off
     in stresses of E (F - I) with F - I = 5e-9), so its forces are known to
