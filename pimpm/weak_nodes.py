@@ -19,6 +19,19 @@ problem symmetric in x and y stays so). Linear displacement fields stay
 exact, and the weak node, left without weight, is dropped like any
 massless node.
 
+A weak node can also be the nearest node of a particle (the middle of its
+stencil along every axis): a lone particle in a fold of the surface
+against a tool, the only particle left on the node after the others have
+folded theirs away. Its stiffness is then one plastic particle's, soft
+enough under compression for Newton to push the node by many cells (the
+3D upsetting at 0.5 mm stalled on one at 33% reduction, docs/VALIDATION.md).
+Nothing lies two steps inward inside such a stencil; the weight goes to
+the parallelograms one step away along two axes (u_I = u_{I-a} + u_{I-b} -
+u_{I-a-b}, exact for linear fields) whose three nodes are free, not weak
+and supported by particles of their own ("strong"), shared equally. A
+weak node in the middle of a flat face has no such parallelogram and
+stays.
+
 The extension applies to quasi-static steps, where nothing but the
 particles' stiffness holds a node. In dynamic steps the mass matrix takes
 part; there it was tried and made Newton worse on a violent plastic impact
@@ -29,8 +42,13 @@ A node is weak when its volume support sum_p S_Ip V_p is a positive
 fraction below ``grid.weak_node_fraction`` (or ``-pimpm_weak_node_fraction``;
 default 0.05; 0 turns the
 extension off) of a cell's volume (in axisymmetry the in-plane area of the
-particles is used), and it is free (no grid face or rigid body prescribes
-any of its components). Only stencils of three nodes per axis (gimp,
+particles is used), no rigid body (or other term) prescribes any of its
+components, and the grid faces leave at least one free. A node on a
+symmetry plane (or another face condition) folds only onto nodes that the
+faces prescribe in the same components, i.e. along that plane: their
+prescribed values are the face's, so the particles see the condition as
+before (the 3D upsetting at 0.5 mm stalled at 46% on a weak node of its
+symmetry plane x = 0 that Newton moved by metres). Only stencils of three nodes per axis (gimp,
 bspline) are extended; the footprint of a step is fixed during its Newton
 solve, so the residual and the tangent use the same extended basis (the
 finite-difference checks of tests/test_weak_nodes.py).
@@ -49,22 +67,36 @@ def support_fraction(grid, node_index, S, in_plane_volume):
 
 
 class WeakNodes:
-    """Ghosted-local node flags: ``weak`` (free, support below the
-    fraction), ``receives`` (may take a weak node's weight: neither weak nor
-    prescribed) and the ``support`` fractions."""
+    """Ghosted-local node data: ``weak`` (support below the fraction, not
+    held by a tool, not prescribed in every component), ``mask`` (the bits
+    of the components a grid face prescribes; -1 where a rigid body or other
+    term prescribes any), ``receives`` (may take some weak node's weight:
+    not weak, not held), ``support`` (the fractions) and ``strong``
+    (receives and has support of its own). A weak node's weight goes only to
+    nodes with its own mask: a free node's to free nodes, a node on a
+    symmetry plane's to nodes on that plane, whose prescribed component
+    (the same value along a face) the particles then see as before."""
 
-    def __init__(self, grid, support, prescribed, fraction):
-        """From the owned dof arrays ``support`` and ``prescribed`` (bool).
-        Collective."""
+    def __init__(self, grid, support, prescribed, fraction, held=None):
+        """From the owned dof arrays ``support``, ``prescribed`` (bool: by
+        the grid faces) and ``held`` (bool: by rigid bodies and other terms;
+        None: none). Collective."""
         dim = grid.dim
-        node_prescribed = prescribed.reshape(-1, dim).any(axis=1)
+        mask = (prescribed.reshape(-1, dim) * (1 << np.arange(dim))).sum(axis=1)
+        if held is not None:
+            mask = np.where(held.reshape(-1, dim).any(axis=1), -1, mask)
         node_support = support.reshape(-1, dim)[:, 0]
-        owned_weak = (node_support > 0.0) & (node_support < fraction) & ~node_prescribed
-        code = np.where(owned_weak, 1.0, np.where(node_prescribed, 2.0, 0.0))
-        local = grid.owned_to_local(np.stack([code, node_support] + [node_support] * (dim - 2),
-                                             axis=1).reshape(-1))
-        self.weak, self.receives = local[:, 0] == 1.0, local[:, 0] == 0.0
+        owned_weak = ((node_support > 0.0) & (node_support < fraction) & (mask >= 0)
+                      & (mask != (1 << dim) - 1))
+        code = mask + 16 * owned_weak                          # mask in [-1, 7]
+        local = grid.owned_to_local(np.stack([code.astype(float), node_support]
+                                             + [node_support] * (dim - 2), axis=1).reshape(-1))
+        code = np.rint(local[:, 0]).astype(np.int64)
+        self.weak = code >= 15
+        self.mask = np.where(self.weak, code - 16, code)
+        self.receives = ~self.weak & (self.mask >= 0)
         self.support = np.ascontiguousarray(local[:, 1])
+        self.strong = self.receives & (self.support > 0.0)
 
 
 def extend(shape, grid, node_index, S, G, nodes):
@@ -73,5 +105,5 @@ def extend(shape, grid, node_index, S, G, nodes):
     if shape.nodes_per_axis != 3 or not nodes.weak.any() or len(S) == 0:
         return 0
     return transfer_kernels.fold_weak_nodes(tuple(range(grid.dim)), shape.nodes_per_axis, node_index,
-                                            S, G, nodes.weak, nodes.receives, grid.ghost_start,
+                                            S, G, nodes.weak, nodes.mask, nodes.strong, grid.ghost_start,
                                             grid.ghost_shape)

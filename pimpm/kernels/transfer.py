@@ -220,19 +220,29 @@ def gradient_weight(node_index, G, spacing, mass, out):
 
 
 @jit
-def fold_weak_nodes(axes, nodes_per_axis, node_index, S, G, weak, receives, ghost_start,
+def fold_weak_nodes(axes, nodes_per_axis, node_index, S, G, weak, faces, strong, ghost_start,
                     ghost_shape):
     """Extend the weakly supported nodes (``weak``, ghosted-local flags) out
     of the footprint (pimpm.weak_nodes). For each particle and each weak
     node at an end of its stencil along some axes, the smallest sets D of
     those axes are found along which every node 1 or 2 steps inward is a
-    genuine node (not clipped onto the grid) that may take weight
-    (``receives``: neither weak nor prescribed); the weak node's weight and
+    genuine node (not clipped onto the grid) that may take its weight (not
+    weak, and ``faces``, the bits of the components the grid faces prescribe,
+    -1 where a tool holds the node, equal to the weak node's: a free node's
+    weight goes to free nodes, a symmetry plane's to that plane); the weak node's weight and
     gradient go to those nodes with the tensor product of the linear
     extrapolation weights (+2 one step in, -1 two steps in, per axis of D),
     shared equally among the sets found (so that no axis comes first).
-    Linear fields stay exact; the weak node keeps no weight. Returns the
-    number of (particle, node) pairs folded."""
+    Linear fields stay exact; the weak node keeps no weight.
+
+    A weak node in the middle of a particle's stencil along every axis (the
+    particle's nearest node: a lone particle at a fold of the surface) has
+    no inward node two steps away inside the stencil; its weight goes to the
+    parallelogram one step away along two axes (+1, +1, -1: u_I = u_{I-a} +
+    u_{I-b} - u_{I-a-b}, exact for linear fields), over every pair of axes
+    and sides whose three nodes are genuine, take weight as above and are
+    ``strong`` (have support of their own), shared equally. Returns the number of
+    (particle, node) pairs folded."""
     dim = len(axes)
     n, nn = S.shape
     npa = nodes_per_axis
@@ -259,6 +269,9 @@ def fold_weak_nodes(axes, nodes_per_axis, node_index, S, G, weak, receives, ghos
                 if o[d] != 1:
                     ends |= 1 << d
             if ends == 0:
+                if dim > 1 and _fold_middle(p, s, node, dim, stride, gstride, ghost_shape,
+                                            node_index, S, G, weak, faces, strong):
+                    folded += 1
                 continue
             # the smallest subsets of the end axes whose 2^|D| targets all qualify
             count = 0
@@ -271,7 +284,7 @@ def fold_weak_nodes(axes, nodes_per_axis, node_index, S, G, weak, receives, ghos
                     for code in range(1 << size):
                         t = _target(s, node, mask, code, dim, inward, stride, gstride, ghost_shape,
                                     node_index, p)
-                        if t < 0 or not receives[node_index[p, t]]:
+                        if t < 0 or weak[node_index[p, t]] or faces[node_index[p, t]] != faces[node]:
                             ok = False
                             break
                     good[mask] = ok
@@ -302,6 +315,58 @@ def fold_weak_nodes(axes, nodes_per_axis, node_index, S, G, weak, receives, ghos
                         G[p, t, e] += c * g[e]
             folded += 1
     return folded
+
+
+@jit
+def _fold_middle(p, s, node, dim, stride, gstride, ghost_shape, node_index, S, G, weak, faces, strong):
+    """Fold the weak node in the middle slot ``s`` of particle ``p``'s
+    stencil onto the parallelograms one step away along two axes (see
+    fold_weak_nodes); False (nothing changed) if none qualifies."""
+    slots = np.empty((12, 3), dtype=np.int64)       # at most 3 pairs x 4 sides in 3D
+    count = 0
+    for a in range(dim):
+        for b in range(a + 1, dim):
+            for sa in (-1, 1):
+                for sb in (-1, 1):
+                    ta = s + sa * stride[a]
+                    tb = s + sb * stride[b]
+                    tab = ta + sb * stride[b]
+                    ok = True
+                    for t, da, db in ((ta, sa, 0), (tb, 0, sb), (tab, sa, sb)):
+                        target = node_index[p, t]
+                        if weak[target] or faces[target] != faces[node] or not strong[target]:
+                            ok = False
+                            break
+                        for d in range(dim):
+                            i0 = (node // gstride[d]) % ghost_shape[d]
+                            i1 = (target // gstride[d]) % ghost_shape[d]
+                            step = da if d == a else (db if d == b else 0)
+                            if i1 != i0 + step:
+                                ok = False
+                        if not ok:
+                            break
+                    if ok:
+                        slots[count, 0] = ta
+                        slots[count, 1] = tb
+                        slots[count, 2] = tab
+                        count += 1
+    if count == 0:
+        return False
+    w = S[p, s] / count
+    g = np.empty(dim)
+    for e in range(dim):
+        g[e] = G[p, s, e] / count
+    S[p, s] = 0.0
+    for e in range(dim):
+        G[p, s, e] = 0.0
+    for c in range(count):
+        for k in range(3):
+            sign = -1.0 if k == 2 else 1.0
+            t = slots[c, k]
+            S[p, t] += sign * w
+            for e in range(dim):
+                G[p, t, e] += sign * g[e]
+    return True
 
 
 @jit

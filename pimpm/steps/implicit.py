@@ -110,11 +110,12 @@ def extend_weak_nodes(sim, node_index, S, G, dt):
     prescribed = np.zeros(grid.n_owned_nodes * sim.dim, dtype=bool)
     faces, _ = bc.face_constraints(grid, sim.boundary, sim.time, dt, sim.functions)
     prescribed[faces] = True
+    held = np.zeros_like(prescribed)
     for term in sim.terms:
         dofs = term.prescribed()
         if dofs is not None:
-            prescribed |= dofs[0]
-    nodes = weak_nodes.WeakNodes(grid, support, prescribed, sim.weak_fraction)
+            held |= dofs[0]
+    nodes = weak_nodes.WeakNodes(grid, support, prescribed, sim.weak_fraction, held)
     sim.weak_pairs = weak_nodes.extend(sim.shape, grid, node_index, S, G, nodes)
 
 

@@ -4,30 +4,59 @@ tests/mpi/contact_jacobian_check.py)."""
 import numpy as np
 from mpi4py import MPI
 
+#: a column whose difference exceeds this fraction of the largest entry is
+#: differenced again with a ten times smaller step (see jacobian_error)
+RECHECK = 1e-7
+
+
+def _column(problem, X, R, j, start, end, h):
+    cols = []
+    for sign in (1.0, -1.0):
+        Xp = X.copy()
+        if start <= j < end:
+            Xp.getArray()[j - start] += sign * h
+        problem.form_residual(None, Xp, R)
+        cols.append(R.getArray().copy())
+    return (cols[0] - cols[1]) / (2 * h)
+
 
 def jacobian_error(problem, J, X, R, free_local, comm, h):
     """Compare the assembled ``J`` at ``X`` with central differences (step
     ``h``) of ``problem.form_residual``, column by column over the free dofs
     (``free_local``: this rank's owned free dofs; R: a work Vec). Returns
     (largest difference, largest finite-difference entry) over all ranks and
-    this rank's dense rows of J (owned rows x all columns). Collective."""
+    this rank's dense rows of J (owned rows x all columns). Collective.
+
+    A plastic particle within ``h`` of its yield surface puts a kink inside
+    a central difference (an error of 1e-3 at h = 1e-6 that vanishes at
+    1e-5 and 1e-7 alike: the 3-rank B-spline J2 check once met one). A
+    column that differs by more than RECHECK of the largest entry is
+    differenced again with h / 10 and keeps the closer of the two; a wrong
+    tangent differs at both steps."""
     J_local = J.convert("dense").getDenseArray().copy()
     free_global = np.concatenate(comm.allgather(free_local))
     start, end = X.getOwnershipRange()
     J_fd = np.zeros_like(J_local)
     for j in range(X.getSize()):               # test code: a loop over columns is fine here
-        if not free_global[j]:
-            continue
-        cols = []
-        for sign in (1.0, -1.0):
-            Xp = X.copy()
-            if start <= j < end:
-                Xp.getArray()[j - start] += sign * h
-            problem.form_residual(None, Xp, R)
-            cols.append(R.getArray().copy())
-        J_fd[:, j] = (cols[0] - cols[1]) / (2 * h)
+        if free_global[j]:
+            J_fd[:, j] = _column(problem, X, R, j, start, end, h)
+    rows = free_local
+
+    def column_errors(fd):
+        local = np.max(np.abs(J_local[rows] - fd[rows]), axis=0) if rows.any() else np.zeros(len(free_global))
+        out = np.empty_like(local)
+        comm.Allreduce(local, out, op=MPI.MAX)
+        return out
+
+    scale = comm.allreduce(float(np.max(np.abs(J_fd[np.ix_(rows, free_global)]))) if rows.any() else 0.0,
+                           op=MPI.MAX)
+    errors = column_errors(J_fd)
+    for j in np.flatnonzero(free_global & (errors > RECHECK * scale)):     # the same on every rank
+        again = J_fd.copy()
+        again[:, j] = _column(problem, X, R, j, start, end, h / 10.0)
+        if column_errors(again)[j] < errors[j]:
+            J_fd[:, j] = again[:, j]
     A = J_local[np.ix_(free_local, free_global)]
     B = J_fd[np.ix_(free_local, free_global)]
     err = comm.allreduce(float(np.max(np.abs(A - B))) if A.size else 0.0, op=MPI.MAX)
-    scale = comm.allreduce(float(np.max(np.abs(B))) if B.size else 0.0, op=MPI.MAX)
     return err, scale, J_local
