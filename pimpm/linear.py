@@ -6,6 +6,8 @@ the matrix-free tangent's product is physics: pimpm/implicit/shell.py).
 All of them are configured through the PETSc options database, so every
 choice can be refined or overridden from the command line.
 """
+from contextlib import contextmanager
+
 import numpy as np
 from petsc4py import PETSc
 
@@ -117,6 +119,11 @@ def _with_prescribed(A, b, free, x_free, x):
 #: limit; a solve that does not converge within the limit factorizes anew
 LAGGED_RTOL = 1e-10
 LAGGED_MAX_IT = 30
+#: MUMPS's INFOG(1) when a work array estimated at analysis was too small for
+#: the numerical factorization (delayed pivots of a nearly singular tangent)
+MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -14, -15, -17, -20)
+#: factorizations retried with twice the work space (ICNTL(14)) before giving up
+WORKSPACE_RETRIES = 3
 
 
 class FreeDofsKSP:
@@ -154,6 +161,10 @@ class FreeDofsKSP:
         self.lagged = None          # that GMRES (shares the inner KSP's PC)
         self.factored = False       # does the PC hold a factorization of this step's matrix?
         self.refactorizations = 0   # lagged solves that had to factorize anew
+        #: MUMPS's work-space increase (ICNTL(14), percent) after a factorization
+        #: ran out of it (None: MUMPS's own or the options')
+        self.workspace = None
+        self.workspace_retries = 0  # factorizations repeated with more work space
 
     def _inner(self, ksp):
         if self.inner is None:
@@ -221,10 +232,22 @@ class FreeDofsKSP:
         else:
             its = 0
         self.inner.getPC().setReusePreconditioner(False)
-        self.inner.setOperators(self.matrix, self.matrix)
-        self.inner.solve(self.b, self.x)
-        self.factored = True
-        return its + self.inner.getIterationNumber(), self.inner.getConvergedReason()
+        for attempt in range(WORKSPACE_RETRIES + 1):
+            self.inner.setOperators(self.matrix, self.matrix)      # again after a reset PC
+            with _mumps_workspace(self.workspace):
+                self.inner.solve(self.b, self.x)
+            reason = self.inner.getConvergedReason()
+            grown = _grown_workspace(self.inner.getPC()) if reason < 0 else None
+            if grown is None or attempt == WORKSPACE_RETRIES:
+                break
+            # MUMPS ran out of the work space its analysis estimated (a tangent
+            # near a limit point pivots late): factorize again with twice as
+            # much, and keep that for the rest of the run
+            self.workspace = grown
+            self.workspace_retries += 1
+            self.drop_factorization()
+        self.factored = reason > 0
+        return its + self.inner.getIterationNumber(), reason
 
     def release(self):
         """Destroy the inner objects (collective; not named ``destroy``, which
@@ -238,6 +261,38 @@ class FreeDofsKSP:
         viewer.printfASCII("  direct solver on the free dofs only:\n")
         if self.inner is not None:
             self.inner.view(viewer)
+
+
+def _grown_workspace(pc):
+    """Twice the work-space increase (ICNTL(14)) of a MUMPS factorization of
+    ``pc`` that failed for want of work space, else None. The same on every
+    rank (INFOG is global)."""
+    if pc.getType() not in (PETSc.PC.Type.LU, PETSc.PC.Type.CHOLESKY) \
+            or pc.getFactorSolverType() != "mumps":
+        return None
+    factor = pc.getFactorMatrix()
+    if factor.getMumpsInfog(1) not in MUMPS_WORKSPACE_ERRORS:
+        return None
+    return 2 * max(int(factor.getMumpsIcntl(14)), 20)
+
+
+@contextmanager
+def _mumps_workspace(percent):
+    """-mat_mumps_icntl_14 ``percent`` in the options database while a
+    factorization is set up (None: leave the database alone)."""
+    if percent is None:
+        yield
+        return
+    db = PETSc.Options()
+    before = db.getString("mat_mumps_icntl_14") if db.hasName("mat_mumps_icntl_14") else None
+    db.setValue("mat_mumps_icntl_14", str(percent))
+    try:
+        yield
+    finally:
+        if before is None:
+            db.delValue("mat_mumps_icntl_14")
+        else:
+            db.setValue("mat_mumps_icntl_14", before)
 
 
 def rigid_body_near_null_space(grid):

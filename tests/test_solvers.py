@@ -440,3 +440,55 @@ def test_lagged_solves_factorize_anew_when_gmres_stalls():
     context.release()
     for obj in (outer, A0, b, x):
         obj.destroy()
+
+
+def test_a_factorization_out_of_mumps_work_space_is_repeated_with_more():
+    """MUMPS sizes its work space at analysis; a nearly singular tangent
+    that pivots late needs more (INFOG(1) = -9: the 0.5 mm 3D upsetting's
+    step 24, every cut alike). FreeDofsKSP factorizes again with twice the
+    space (ICNTL(14)), keeps it for the run, and leaves the options
+    database as it was. A matrix with a tiny diagonal and ICNTL(14) = 0
+    reproduces the failure."""
+    from petsc4py import PETSc
+    from pimpm.linear import FreeDofsKSP
+    n = 300
+    rng = np.random.default_rng(0)
+    dense = np.zeros((n, n))
+    for i in range(n):
+        for j in rng.choice(n, 8, replace=False):
+            if i != j:
+                dense[i, j], dense[j, i] = rng.standard_normal(2)
+        dense[i, i] = 1e-12
+    A = PETSc.Mat().createAIJ((n, n), nnz=40, comm=PETSc.COMM_SELF)
+    rows, cols = np.nonzero(dense)
+    for i, j in zip(rows, cols):
+        A[i, j] = dense[i, j]
+    A.assemble()
+    db = PETSc.Options()
+    db.setValue("mat_mumps_icntl_14", "0")
+    try:
+        outer = PETSc.KSP().create(comm=PETSc.COMM_SELF)
+        outer.setType(PETSc.KSP.Type.PYTHON)
+        context = FreeDofsKSP()
+        outer.setPythonContext(context)
+        outer.getPC().setType(PETSc.PC.Type.NONE)
+        context.setFromOptions(outer)
+        context.inner.setType(PETSc.KSP.Type.PREONLY)
+        context.inner.getPC().setType(PETSc.PC.Type.LU)
+        context.inner.getPC().setFactorSolverType("mumps")
+        b = PETSc.Vec().createSeq(n)
+        b.setArray(rng.standard_normal(n))
+        x = b.duplicate()
+        context.set_matrix(A, np.ones(n, dtype=bool))
+        outer.setOperators(A, A)
+        outer.solve(b, x)
+        assert outer.getConvergedReason() > 0
+        np.testing.assert_allclose(dense @ x.getArray(), b.getArray(), atol=1e-8 * np.abs(b.getArray()).max())
+        assert context.workspace_retries == 1 and context.workspace == 40
+        assert db.getString("mat_mumps_icntl_14") == "0"
+        context.release()
+        for obj in (outer, b, x):
+            obj.destroy()
+    finally:
+        db.delValue("mat_mumps_icntl_14")
+        A.destroy()
