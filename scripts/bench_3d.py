@@ -34,6 +34,9 @@ import sys
 import tempfile
 import time
 
+import h5py
+import numpy as np
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from worktrees import worktree  # noqa: E402
@@ -71,6 +74,7 @@ def run(tree, options, size, ranks, end_time, out):
     newton = [int(r["newton_iterations"]) for r in rows]
     krylov = [int(r["linear_iterations"]) / max(1, int(r["newton_iterations"])) for r in rows]
     errors = [line for line in proc.stderr.splitlines() if line.startswith("pimpm: error")]
+    radius, trend = shape_at_end(out, rows, size)
     return {"completed": proc.returncode == 0, "error": errors[-1] if errors else "", "wall": wall,
             "steps": len(rows),
             "reached": float(rows[-1]["time"]) / end_time if rows else 0.0,
@@ -81,7 +85,32 @@ def run(tree, options, size, ranks, end_time, out):
             "first10_wall": sum(float(r["wall_time"]) for r in rows[:10]),
             "peak_rss_mb": peak[0] / 1024.0 if peak else None,
             "particles": particles[0].split(":")[1].split("particles")[0].strip() if particles else "",
-            "force_kN": -float(rows[-1]["platen_force_z"]) * 4 / 1000.0 if rows else None}
+            "force_kN": -float(rows[-1]["platen_force_z"]) * 4 / 1000.0 if rows else None,
+            "force_trend_kN": trend, "radius_mid_height_mm": radius}
+
+
+def shape_at_end(out, rows, size):
+    """The radius at mid-height of the last step written (the largest
+    radius of the cylinder's particles within two cells of the mid-plane z =
+    0, as pimpm.measures.midplane_radius in axisymmetry), and the load's
+    trend at the last step's reduction: a quadratic through the whole-model
+    loads from 30% reduction on (scripts/upsetting_validation.py's; single
+    steps scatter about it with the grid reset). None where not defined."""
+    radius = trend = None
+    try:
+        with h5py.File(os.path.join(out, "results.h5"), "r") as f:
+            last = f["steps"][sorted(f["steps"])[-1]]["particles"]
+            x, body = last["position"][...], last["body"][...]
+        band = (body == 0) & (x[:, 2] < 2.0 * size)
+        radius = float(np.hypot(x[band, 0], x[band, 1]).max()) if band.any() else None
+    except (OSError, KeyError):
+        pass
+    reduction = np.array([float(r["time"]) for r in rows]) * 1000.0 / HALF_HEIGHT
+    force = np.array([-float(r["platen_force_z"]) * 4 / 1000.0 for r in rows])
+    late = reduction >= 0.3 - 1e-9
+    if late.sum() >= 3:
+        trend = float(np.polyval(np.polyfit(reduction[late], force[late], 2), reduction[-1]))
+    return radius, trend
 
 
 def main():
@@ -123,7 +152,9 @@ def main():
                           f"newton/step {r['newton_per_step']:.1f} (step 1: {r['newton_step1']})  "
                           f"krylov/newton {r['krylov_per_newton_median']:.1f}  first 10 steps "
                           f"{r['first10_wall']:.1f} s  whole {r['wall']:.1f} s  peak {r['peak_rss_mb'] or 0:.0f} MB  "
-                          f"particles {r['particles']}  force {r['force_kN'] or 0:.1f} kN", flush=True)
+                          f"particles {r['particles']}  force {r['force_kN'] or 0:.1f} kN (trend "
+                          f"{r['force_trend_kN'] or 0:.1f})  radius at mid-height "
+                          f"{r['radius_mid_height_mm'] or 0:.2f} mm", flush=True)
                     if r["error"]:
                         print("      " + r["error"], flush=True)
     if args.json:
