@@ -270,7 +270,7 @@ def fold_weak_nodes(axes, nodes_per_axis, node_index, S, G, weak, faces, strong,
                     ends |= 1 << d
             if ends == 0:
                 if dim > 1 and _fold_middle(p, s, node, dim, stride, gstride, ghost_shape,
-                                            node_index, S, G, weak, faces, strong):
+                                            node_index, S, G, faces, strong):
                     folded += 1
                 continue
             # the smallest subsets of the end axes whose 2^|D| targets all qualify
@@ -318,7 +318,7 @@ def fold_weak_nodes(axes, nodes_per_axis, node_index, S, G, weak, faces, strong,
 
 
 @jit
-def _fold_middle(p, s, node, dim, stride, gstride, ghost_shape, node_index, S, G, weak, faces, strong):
+def _fold_middle(p, s, node, dim, stride, gstride, ghost_shape, node_index, S, G, faces, strong):
     """Fold the weak node in the middle slot ``s`` of particle ``p``'s
     stencil onto the parallelograms one step away along two axes (see
     fold_weak_nodes); False (nothing changed) if none qualifies."""
@@ -334,7 +334,7 @@ def _fold_middle(p, s, node, dim, stride, gstride, ghost_shape, node_index, S, G
                     ok = True
                     for t, da, db in ((ta, sa, 0), (tb, 0, sb), (tab, sa, sb)):
                         target = node_index[p, t]
-                        if weak[target] or faces[target] != faces[node] or not strong[target]:
+                        if not strong[target] or faces[target] != faces[node]:   # strong: not weak
                             ok = False
                             break
                         for d in range(dim):
