@@ -125,6 +125,14 @@ def _with_prescribed(A, b, free, x_free, x):
 #: (8, 5, 4, 5) and the platen force to 1e-10
 LAGGED_RTOL = 1e-4
 LAGGED_MAX_IT = 30
+#: a lagged solve that needed this many iterations or more has the next
+#: system factorized anew, rather than GMRES running out of its iterations
+#: there. The 0.5 mm 3D upsetting to 60% (2 ranks, docs/PERFORMANCE.md): 67
+#: factorizations and 3,098 triangular solves, the Solve stage 307 s, where
+#: without it 62 and 3,643 took 322 s (23 of those factorizations after a
+#: lagged GMRES had run out of its 30 iterations); at 1 mm 14.8 s against
+#: 16.9 s (10 and 15 iterations: 15.2 and 15.5 s); Newton unchanged
+LAGGED_REFRESH_IT = 20
 #: MUMPS's INFOG(1) when a work array estimated at analysis was too small for
 #: the numerical factorization (delayed pivots of a nearly singular tangent)
 MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -14, -15, -17, -20)
@@ -150,7 +158,8 @@ class FreeDofsKSP:
     the later ones (the tangent changes from one Newton iterate to the next,
     its pattern does not) are solved by right-preconditioned GMRES with that
     factorization as preconditioner, to LAGGED_RTOL on the true residual;
-    one that needs more than LAGGED_MAX_IT iterations is factorized anew
+    one that needs more than LAGGED_MAX_IT iterations is factorized anew, and
+    one that needed LAGGED_REFRESH_IT or more has the next one factorized
     (the options prefix ``pimpm_reuse_`` tunes that GMRES). In 3D a
     triangular solve costs a few percent of a factorization (0.5 mm
     upsetting: 32 ms against 1.9 s), so 10-20 of them per Newton iteration
@@ -166,6 +175,7 @@ class FreeDofsKSP:
         self.reuse = reuse_factorization
         self.lagged = None          # that GMRES (shares the inner KSP's PC)
         self.factored = False       # does the PC hold a factorization of this step's matrix?
+        self.stale = False          # did the last lagged solve need LAGGED_REFRESH_IT iterations or more?
         self.refactorizations = 0   # lagged solves that had to factorize anew
         #: MUMPS's work-space increase (ICNTL(14), percent) after a factorization
         #: ran out of it (None: MUMPS's own or the options')
@@ -224,7 +234,7 @@ class FreeDofsKSP:
 
     def _solve_free(self):
         """Solve the free dofs' system: (iterations, converged reason)."""
-        if self.lagged is not None and self.factored:
+        if self.lagged is not None and self.factored and not self.stale:
             # the step's first factorization preconditions GMRES on today's matrix
             self.inner.getPC().setReusePreconditioner(True)     # the flag is the shared PC's
             self.lagged.setOperators(self.matrix, self.matrix)
@@ -233,6 +243,8 @@ class FreeDofsKSP:
             reason = self.lagged.getConvergedReason()
             its = self.lagged.getIterationNumber()
             if reason > 0:
+                # GMRES is running out of the factorization: the next system gets a new one
+                self.stale = its >= LAGGED_REFRESH_IT
                 return its, reason
             self.refactorizations += 1
         else:
@@ -253,6 +265,7 @@ class FreeDofsKSP:
             self.workspace_retries += 1
             self.drop_factorization()
         self.factored = reason > 0
+        self.stale = False
         return its + self.inner.getIterationNumber(), reason
 
     def release(self):

@@ -492,3 +492,55 @@ def test_a_factorization_out_of_mumps_work_space_is_repeated_with_more():
     finally:
         db.delValue("mat_mumps_icntl_14")
         A.destroy()
+
+
+def test_a_lagged_solve_that_needed_many_iterations_has_the_next_system_factorized(monkeypatch):
+    """FreeDofsKSP with reuse: a lagged GMRES solve that converged but needed
+    LAGGED_REFRESH_IT iterations or more marks the factorization stale, and
+    the next system is factorized anew (one iteration, no failed GMRES
+    counted as a refactorization) instead of GMRES running out of iterations
+    on it; a lagged solve below the threshold keeps the factorization."""
+    from petsc4py import PETSc
+    import pimpm.linear as linear
+    n = 200
+    rng = np.random.default_rng(5)
+    dense0 = np.diag(np.full(n, 4.0)) - np.eye(n, k=1) - np.eye(n, k=-1)
+    A = PETSc.Mat().createDense((n, n), array=dense0.copy(), comm=PETSc.COMM_SELF)
+    A.assemble()
+    outer = PETSc.KSP().create(comm=PETSc.COMM_SELF)
+    outer.setType(PETSc.KSP.Type.PYTHON)
+    context = linear.FreeDofsKSP(reuse_factorization=True)
+    outer.setPythonContext(context)
+    outer.getPC().setType(PETSc.PC.Type.NONE)
+    context.setFromOptions(outer)
+    context.inner.setType(PETSc.KSP.Type.PREONLY)
+    context.inner.getPC().setType(PETSc.PC.Type.LU)
+    b = PETSc.Vec().createSeq(n)
+    b.setArray(rng.standard_normal(n))
+    x = b.duplicate()
+    context.set_matrix(A, np.ones(n, dtype=bool))
+
+    def solve(noise):
+        dense = dense0 + noise * rng.standard_normal((n, n))
+        A.setValues(range(n), range(n), dense.ravel())
+        A.assemble()
+        outer.setOperators(A, A)
+        outer.solve(b, x)
+        assert outer.getConvergedReason() > 0
+        exact = np.linalg.solve(dense, b.getArray())
+        assert np.linalg.norm(x.getArray() - exact) <= 1e3 * linear.LAGGED_RTOL * np.linalg.norm(exact)
+        return outer.getIterationNumber()
+
+    first = solve(0.0)
+    lagged = solve(0.01)
+    assert first == 1 and 1 < lagged < linear.LAGGED_MAX_IT
+    monkeypatch.setattr(linear, "LAGGED_REFRESH_IT", linear.LAGGED_MAX_IT)
+    assert solve(0.01) > 1 and not context.stale              # below the threshold: still lagged
+    monkeypatch.setattr(linear, "LAGGED_REFRESH_IT", 2)
+    assert solve(0.01) > 1 and context.stale                  # at or above it: stale
+    assert solve(0.01) == 1 and not context.stale              # so this one is factorized anew
+    assert solve(0.01) > 1                                     # and the next one lagged again
+    assert context.refactorizations == 0
+    context.release()
+    for obj in (outer, A, b, x):
+        obj.destroy()
