@@ -394,22 +394,15 @@ def test_linear_predictor_is_the_answer_of_a_linear_elastic_step():
     assert initial[True] < 1e-5 * initial[False]
 
 
-def test_lagged_solves_factorize_anew_when_gmres_stalls():
-    """FreeDofsKSP with reuse: the first solve of a step factorizes, the next
-    ones run GMRES preconditioned by that factorization to the true-residual
-    tolerance, and a matrix too far from the factorized one is factorized
-    anew (within LAGGED_MAX_IT iterations or not at all)."""
+def _reused_factorization_solver(dense, rng):
+    """A python KSP with FreeDofsKSP's reused factorization (PETSc's own LU
+    inside, every dof free) on a dense matrix made from ``dense``, and a
+    random right-hand side and a solution vector: (outer, context, A, b, x)."""
     from petsc4py import PETSc
-    from pimpm.linear import LAGGED_RTOL, FreeDofsKSP
-    n = 200
-    rng = np.random.default_rng(3)
-    def matrix(shift, noise):
-        dense = np.diag(np.full(n, 4.0 + shift)) - np.eye(n, k=1) - np.eye(n, k=-1)
-        dense += noise * rng.standard_normal((n, n))
-        A = PETSc.Mat().createDense((n, n), array=dense, comm=PETSc.COMM_SELF)
-        A.assemble()
-        return A, dense
-    A0, _ = matrix(0.0, 0.0)
+    from pimpm.linear import FreeDofsKSP
+    n = dense.shape[0]
+    A = PETSc.Mat().createDense((n, n), array=dense.copy(), comm=PETSc.COMM_SELF)
+    A.assemble()
     outer = PETSc.KSP().create(comm=PETSc.COMM_SELF)
     outer.setType(PETSc.KSP.Type.PYTHON)
     context = FreeDofsKSP(reuse_factorization=True)
@@ -418,27 +411,46 @@ def test_lagged_solves_factorize_anew_when_gmres_stalls():
     context.setFromOptions(outer)
     context.inner.setType(PETSc.KSP.Type.PREONLY)
     context.inner.getPC().setType(PETSc.PC.Type.LU)
-    free = np.ones(n, dtype=bool)
     b = PETSc.Vec().createSeq(n)
     b.setArray(rng.standard_normal(n))
     x = b.duplicate()
-    context.set_matrix(A0, free)
-    iterations = []
-    for shift, noise in ((0.0, 0.0), (0.05, 0.002), (0.0, 1.0)):
-        A, dense = matrix(shift, noise)
-        A0.setValues(range(n), range(n), dense.ravel())
-        A0.assemble()
-        outer.setOperators(A0, A0)
-        outer.solve(b, x)
-        assert outer.getConvergedReason() > 0
-        exact = np.linalg.solve(dense, b.getArray())
-        assert np.linalg.norm(x.getArray() - exact) <= 1e3 * LAGGED_RTOL * np.linalg.norm(exact)
-        iterations.append(outer.getIterationNumber())
-        A.destroy()
+    context.set_matrix(A, np.ones(n, dtype=bool))
+    return outer, context, A, b, x
+
+
+def _solve_with(outer, A, dense, b, x):
+    """Solve with ``A`` holding ``dense``: the answer to the lagged solves'
+    tolerance, and the iterations."""
+    from pimpm.linear import LAGGED_RTOL
+    n = dense.shape[0]
+    A.setValues(range(n), range(n), dense.ravel())
+    A.assemble()
+    outer.setOperators(A, A)
+    outer.solve(b, x)
+    assert outer.getConvergedReason() > 0
+    exact = np.linalg.solve(dense, b.getArray())
+    assert np.linalg.norm(x.getArray() - exact) <= 1e3 * LAGGED_RTOL * np.linalg.norm(exact)
+    return outer.getIterationNumber()
+
+
+def test_lagged_solves_factorize_anew_when_gmres_stalls():
+    """FreeDofsKSP with reuse: the first solve of a step factorizes, the next
+    ones run GMRES preconditioned by that factorization to the true-residual
+    tolerance, and a matrix too far from the factorized one is factorized
+    anew (within LAGGED_MAX_IT iterations or not at all)."""
+    n = 200
+    rng = np.random.default_rng(3)
+
+    def matrix(shift, noise):
+        dense = np.diag(np.full(n, 4.0 + shift)) - np.eye(n, k=1) - np.eye(n, k=-1)
+        return dense + noise * rng.standard_normal((n, n))
+    outer, context, A, b, x = _reused_factorization_solver(matrix(0.0, 0.0), rng)
+    iterations = [_solve_with(outer, A, matrix(shift, noise), b, x)
+                  for shift, noise in ((0.0, 0.0), (0.05, 0.002), (0.0, 1.0))]
     assert iterations[0] == 1 and 1 < iterations[1] < 30      # factorized, then lagged
     assert context.refactorizations == 1                      # the far matrix: factorized anew
     context.release()
-    for obj in (outer, A0, b, x):
+    for obj in (outer, A, b, x):
         obj.destroy()
 
 
@@ -500,36 +512,14 @@ def test_a_lagged_solve_that_needed_many_iterations_has_the_next_system_factoriz
     the next system is factorized anew (one iteration, no failed GMRES
     counted as a refactorization) instead of GMRES running out of iterations
     on it; a lagged solve below the threshold keeps the factorization."""
-    from petsc4py import PETSc
     import pimpm.linear as linear
     n = 200
     rng = np.random.default_rng(5)
     dense0 = np.diag(np.full(n, 4.0)) - np.eye(n, k=1) - np.eye(n, k=-1)
-    A = PETSc.Mat().createDense((n, n), array=dense0.copy(), comm=PETSc.COMM_SELF)
-    A.assemble()
-    outer = PETSc.KSP().create(comm=PETSc.COMM_SELF)
-    outer.setType(PETSc.KSP.Type.PYTHON)
-    context = linear.FreeDofsKSP(reuse_factorization=True)
-    outer.setPythonContext(context)
-    outer.getPC().setType(PETSc.PC.Type.NONE)
-    context.setFromOptions(outer)
-    context.inner.setType(PETSc.KSP.Type.PREONLY)
-    context.inner.getPC().setType(PETSc.PC.Type.LU)
-    b = PETSc.Vec().createSeq(n)
-    b.setArray(rng.standard_normal(n))
-    x = b.duplicate()
-    context.set_matrix(A, np.ones(n, dtype=bool))
+    outer, context, A, b, x = _reused_factorization_solver(dense0, rng)
 
     def solve(noise):
-        dense = dense0 + noise * rng.standard_normal((n, n))
-        A.setValues(range(n), range(n), dense.ravel())
-        A.assemble()
-        outer.setOperators(A, A)
-        outer.solve(b, x)
-        assert outer.getConvergedReason() > 0
-        exact = np.linalg.solve(dense, b.getArray())
-        assert np.linalg.norm(x.getArray() - exact) <= 1e3 * linear.LAGGED_RTOL * np.linalg.norm(exact)
-        return outer.getIterationNumber()
+        return _solve_with(outer, A, dense0 + noise * rng.standard_normal((n, n)), b, x)
 
     first = solve(0.0)
     lagged = solve(0.01)
