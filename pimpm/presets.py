@@ -163,7 +163,7 @@ def _number(command_line, name, default):
 #: factorization (ICNTL(35) = 2), the fronts compressed before they are
 #: factorized (ICNTL(36) = 1), at a dropping threshold CNTL(7) of 1e-4. On the
 #: 0.5 mm 3D upsetting's first four steps (2 ranks, docs/PERFORMANCE.md "3D at
-#: 0.5 mm") a factorization takes 1.9 s instead of 3.7 s, a triangular solve
+#: 0.5 mm") a factorization takes 1.9-2.8 s instead of 3.7 s, a triangular solve
 #: 32 ms instead of 42 ms, and the largest rank 2.2 GB instead of 3.1 GB, for the
 #: same Newton iterations and platen force (to 1e-10); at 1e-3 step 1 took 16
 #: Newton iterations instead of 8
