@@ -135,7 +135,7 @@ class HistoryObserver(Observer):
 def history_names(sim):
     """The rigid bodies, loads and contact tools that history.csv has columns for."""
     return {"rigid_names": [b.name for b in sim.rigid_bodies], "load_names": [load.name for load in sim.loads],
-            "contact_names": [t.name for t in sim.contact_tools]}
+            "contact_names": sim.contact_names}
 
 
 def restart_line(sim, directory):

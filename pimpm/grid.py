@@ -253,17 +253,52 @@ class Grid:
         column by column (the same contributions, added in the same order).
         Collective."""
         k = local_values.shape[1]
-        if k not in self._wide:
-            da = self.da.duplicate(dof=k)
-            self._wide[k] = (da, da.createLocalVec(), da.createGlobalVec())
-        da, lvec, gvec = self._wide[k]
+        da, lvec, gvec = self._wide_da(k)
         lvec.getArray()[:] = np.asarray(local_values, dtype=float).reshape(-1)
         gvec.zeroEntries()
         da.localToGlobal(lvec, gvec, addv=PETSc.InsertMode.ADD_VALUES)
         return gvec.getArray().reshape(-1, k).copy()
 
+    def _wide_da(self, k):
+        """The DMDA of ``k`` dofs per node on this grid's layout, with a local
+        and a global vector (made once per width)."""
+        if k not in self._wide:
+            da = self.da.duplicate(dof=k)
+            self._wide[k] = (da, da.createLocalVec(), da.createGlobalVec())
+        return self._wide[k]
+
+    def owned_columns_to_local(self, owned_values):
+        """Ghosted-local copy (n_local_nodes, k) of owned nodal values
+        (n_owned_nodes, k) of any width k. Collective."""
+        k = owned_values.shape[1]
+        da, lvec, gvec = self._wide_da(k)
+        gvec.getArray()[:] = np.asarray(owned_values, dtype=float).reshape(-1)
+        da.globalToLocal(gvec, lvec, addv=PETSc.InsertMode.INSERT_VALUES)
+        return lvec.getArray().reshape(-1, k).copy()
+
+    def max_columns_to_owned(self, local_values):
+        """The largest of the ghosted-local nodal values (n_local_nodes, k)
+        over all ranks, on the owned nodes (n_owned_nodes, k): a scatter with
+        MAX (DMDA localToGlobal only adds or inserts). Collective."""
+        k = local_values.shape[1]
+        da, lvec, gvec = self._wide_da(k)
+        if not hasattr(self, "_max_scatters"):
+            self._max_scatters = {}
+        if k not in self._max_scatters:
+            indices = PETSc.IS().createGeneral(da.getLGMap().getIndices(), comm=PETSc.COMM_SELF)
+            self._max_scatters[k] = PETSc.Scatter().create(lvec, None, gvec, indices)
+            indices.destroy()
+        lvec.getArray()[:] = np.asarray(local_values, dtype=float).reshape(-1)
+        gvec.set(-np.inf)
+        self._max_scatters[k].scatter(lvec, gvec, addv=PETSc.InsertMode.MAX_VALUES,
+                                      mode=PETSc.ScatterMode.FORWARD)
+        return gvec.getArray().reshape(-1, k).copy()
+
     def destroy(self):
         """Free the DMDAs (collective)."""
+        for scatter in getattr(self, "_max_scatters", {}).values():
+            scatter.destroy()
+        self._max_scatters = {}
         for da, lvec, gvec in self._wide.values():
             for obj in (lvec, gvec, da):
                 obj.destroy()

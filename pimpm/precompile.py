@@ -68,6 +68,12 @@ def main():
             config["time"] = {"integrator": "explicit", "end_time": 1.0}
             sim = Simulation(validate(config), MPI.COMM_SELF)
             sim.advance(0.5 * sim.stable_time_step())
+            # deformable bodies in contact, a velocity field each (pimpm.fields)
+            config["bodies"][1] = dict(config["bodies"][0], name="top", geometry={
+                "type": "box", "lower": [0.0] * (dim - 1) + [1.0], "upper": [1.0] * (dim - 1) + [1.5]})
+            config["contact"] = [{"bodies": ["block", "top"], "law": "friction", "friction_coefficient": 0.3}]
+            sim = Simulation(validate(config), MPI.COMM_SELF)
+            sim.advance(0.5 * sim.stable_time_step())
     print(f"pimpm: kernels compiled in {time.perf_counter() - start:.1f} s "
           f"(cache: {CACHE_DIRECTORY})")
 

@@ -37,6 +37,7 @@ from .stages import log_stage, log_stages
 from .terms import BondedRigidBody, ContactTool, StepContext, make_terms
 from .steps import explicit as explicit_step
 from .steps import implicit as implicit_step
+from .fields import BodyFields
 from .transfer import particle_to_grid
 
 __all__ = ["Simulation", "SetupError", "StepFailed"]
@@ -75,6 +76,8 @@ class Simulation:
         self.body_names = [b["name"] for b in config["bodies"]]
         #: what a step adds beside the particles: rigid bodies bonded to the material (pimpm.terms)
         self.terms = make_terms(config, self.functions)
+        #: the deformable bodies' grid velocity fields and their contact pairs (pimpm.fields)
+        self.fields = BodyFields(config)
         self.loads = make_loads(config, self.functions, self.body_names)
         self.body_material = {i: self.material_names.index(b["material"])
                               for i, b in enumerate(config["bodies"]) if not b.get("rigid", False)}
@@ -388,12 +391,18 @@ class Simulation:
 
     def nodal_external_force(self, node_index, S, mass, time):
         """Fext_g at ``time`` on owned dofs: gravity (m_g g f(time)) and the
-        loads on particles. Collective."""
+        loads on particles. With several velocity fields (pimpm.fields),
+        ``node_index`` and ``mass`` may be the fields' (field nodes, per
+        field dof). Collective."""
         fext = mass * np.tile(self.gravity * self.gravity_function(time), len(mass) // self.dim)
         forces = particle_forces(self.loads, self.particles, time, self.dim)
         if forces is not None:
-            fext = fext + self.grid.sum_to_owned(particle_to_grid(node_index, S, forces,
-                                                                  self.grid.n_local_nodes))
+            if len(mass) == self.dim * self.grid.n_owned_nodes:     # one field (or grid nodes)
+                fext = fext + self.grid.sum_to_owned(particle_to_grid(node_index, S, forces,
+                                                                      self.grid.n_local_nodes))
+            else:
+                fext = fext + self.fields.sum_to_owned(self.grid, particle_to_grid(
+                    node_index, S, forces, self.fields.local_nodes(self.grid))).reshape(-1)
         return fext
 
     def particle_external_force(self, time):
@@ -414,6 +423,11 @@ class Simulation:
     def contact_tools(self):
         """The rigid bodies in unilateral contact (contact columns in the history)."""
         return [t for t in self.terms if isinstance(t, ContactTool)]
+
+    @property
+    def contact_names(self):
+        """The contact tools' and the contact pairs' names (their columns in history.csv)."""
+        return [t.name for t in self.contact_tools] + self.fields.names
 
     def begin_terms(self, dt):
         """Set every nodal term up for the step of size dt from self.time. Collective."""
@@ -475,9 +489,11 @@ class Simulation:
                     load_forces={load.name: load.resultant(self.time) for load in self.loads},
                     load_displacements={load.name: load_displacement(load, self.particles, self.comm)
                                         for load in self.loads})
-        if self.contact_tools:
-            info.update(contact={t.name: dict(t.last) for t in self.contact_tools},
-                        frictional_dissipation=sum(t.dissipation for t in self.contact_tools))
+        if self.contact_names:
+            contact = {t.name: dict(t.last) for t in self.contact_tools}
+            contact.update({name: dict(values) for name, values in self.fields.last.items()})
+            info.update(contact=contact, frictional_dissipation=sum(t.dissipation for t in self.contact_tools)
+                        + self.fields.dissipation)
         kinetic, stored = energy.energies(self.particles, self.material_table(), self.comm)
         info.update(forces=forces, external_work=self.work.total,
                     kinetic_energy=kinetic, strain_energy=stored,

@@ -110,8 +110,8 @@ def test_base_config_normalizes_with_defaults():
                              "linear_predictor": "auto"}
     assert cfg["output"] == {"directory": "pimpm_output", "every": 1, "checkpoint_every": 0}
     assert list(cfg) == ["title", "dim", "functions", "grid", "kinematics", "materials", "bodies",
-                         "loads", "time", "solver", "parallel", "output"]
-    assert cfg["functions"] == {} and cfg["loads"] == []
+                         "contact", "loads", "time", "solver", "parallel", "output"]
+    assert cfg["functions"] == {} and cfg["loads"] == [] and cfg["contact"] == []
 
 
 def test_types_are_normalized():

@@ -15,6 +15,7 @@ vectors as lists of length ``dim``, and an extra top-level key ``dim`` (2 or 3):
                           ["youngs_modulus", "poisson_ratio"], <the model's parameters>}},
      "bodies": [{"name", "material", "rigid", "geometry", "particles_per_cell",
                  "velocity", "constrain"}],
+     "contact": [{"bodies": [name, name], "law", ["friction_coefficient"]}],
      "time": {"integrator", "dt", "end_time", "gravity", "dt_initial", "ramp_factor",
               "max_cuts", "easy_newton_iterations", "max_particle_displacement", "cfl",
               "stress_update", "formulation", <the integrator's parameters>},
@@ -35,6 +36,7 @@ from .bodies import _validate_bodies, _validate_materials
 from .derived import check_derived
 from .functions import _validate_functions
 from .loads import _validate_loads
+from .pairs import _validate_contact_pairs, check_contact_pairs
 from .checks import _MISSING, ROOT, ConfigError, _enum, _fail, _Section
 from .schema import KINEMATICS, TOP_KEYS
 from .sections import _validate_grid, _validate_output, _validate_parallel, _validate_solver, _validate_time
@@ -80,6 +82,7 @@ def validate(raw, source_name=None, base_dir=None):
         "materials")
     bodies = _validate_bodies(top.required("bodies", "a non-empty list of bodies"),
                               "bodies", dim, materials, grid, functions, base_dir)
+    pairs = _validate_contact_pairs(top.optional("contact"), "contact", bodies)
     loads = _validate_loads(top.optional("loads"), "loads", dim, bodies, functions, grid)
     time = _validate_time(top.required("time", "a mapping with dt and end_time"), "time", dim,
                           functions)
@@ -88,10 +91,11 @@ def validate(raw, source_name=None, base_dir=None):
     output = _validate_output(top.optional("output"), "output", source_name)
 
     config = {"title": title, "dim": dim, "functions": functions, "grid": grid, "kinematics": kin,
-              "materials": materials, "bodies": bodies, "loads": loads, "time": time,
+              "materials": materials, "bodies": bodies, "contact": pairs, "loads": loads, "time": time,
               "solver": solver, "parallel": parallel, "output": output}
     check_derived(config)
     _check_contact(config)
+    check_contact_pairs(config)
     _check_f_bar(config)
     return config
 

@@ -31,7 +31,7 @@ DEFAULT_PARTICLES_PER_CELL = 2
 DEFAULT_OUTPUT_DIRECTORY = "pimpm_output"
 BBOX_RELATIVE_TOLERANCE = 1e-12
 
-TOP_KEYS = ("title", "functions", "grid", "kinematics", "materials", "bodies", "loads", "time",
+TOP_KEYS = ("title", "functions", "grid", "kinematics", "materials", "bodies", "contact", "loads", "time",
             "solver", "parallel", "output")
 GRID_KEYS = ("lower", "upper", "cells", "shape_functions", "boundary", "weak_node_fraction")
 #: nodes with less support than this fraction of a cell are extended out (GIMP, B-splines; pimpm.weak_nodes)

@@ -33,9 +33,11 @@ class ParticleStress:
     compiled loop; the internal force of the particles' current stresses."""
 
     def __init__(self, sim, node_index, S, G):
+        """``node_index``: the particles' field nodes (pimpm.fields)."""
         p = sim.particles
         self.sim = sim
         self.node_index, self.S, self.G = node_index, S, G
+        self.n_nodes = sim.fields.local_nodes(sim.grid)
         self.active = np.ones(S.shape, dtype=np.bool_)     # footprint entries outside the body add zero
         self.table = sim.material_table()
         self.history = sim.particle_history()
@@ -48,10 +50,11 @@ class ParticleStress:
         self.volume = (p["volume0"] * np.linalg.det(p["F"]) if self.cells.count else p["volume0"])
 
     def particle_to_grid(self):
-        """Ghosted-local (n_nodes, 1 + 2 dim): mass, momentum and the internal
-        force of the current stresses (:func:`pimpm.kernels.stress.explicit_p2g`)."""
+        """Ghosted-local field nodes (n_nodes, 1 + 2 dim): mass, momentum and
+        the internal force of the current stresses
+        (:func:`pimpm.kernels.stress.explicit_p2g`)."""
         sim, p = self.sim, self.sim.particles
-        nodal = np.empty((sim.grid.n_local_nodes, 1 + 2 * sim.dim))
+        nodal = np.empty((self.n_nodes, 1 + 2 * sim.dim))
         explicit_p2g(sim.kinematics.kernel_code, self.axes, self.footprint, self.node_index, self.S, self.G,
                      self.radius, p["mass"], p["v"], p["stress"], p["F"], p["volume0"], nodal)
         return nodal
@@ -63,7 +66,7 @@ class ParticleStress:
         sim, p = self.sim, self.sim.particles
         n, dim = len(p), sim.dim
         new_v, new_x = np.empty((n, dim)), np.empty((n, dim))
-        momentum = np.empty((sim.grid.n_local_nodes, dim))
+        momentum = np.empty((self.n_nodes, dim))
         explicit_g2p(self.axes, self.footprint, self.node_index, self.S, dt, np.hstack([a_local, v_local]),
                      p["mass"], p["v"], p["x"], new_v, new_x, momentum)
         return new_v, new_x, momentum
@@ -72,10 +75,12 @@ class ParticleStress:
         """Fint (MPM intro eq. 6) of the particles' current stresses, summed
         to owned dofs. Collective."""
         sim, p = self.sim, self.sim.particles
-        force = np.empty((sim.grid.n_local_nodes, sim.dim))
+        force = np.empty((self.n_nodes, sim.dim))
         current_internal_force(sim.kinematics.kernel_code, self.axes, self.footprint, self.node_index,
                                self.S, self.G, self.radius, p["stress"], p["F"], p["volume0"], force)
-        return sim.grid.sum_to_owned(force)
+        if sim.fields.single:
+            return sim.grid.sum_to_owned(force)
+        return sim.fields.sum_to_owned(sim.grid, force).reshape(-1)
 
     def evaluate(self, v_local, dt):
         """Deform the particles with the ghosted-local grid velocity
@@ -139,29 +144,40 @@ def _check(sim, dt, saved, inverted=0, unconverged=0, outside=False):
 def advance(sim, dt):
     """One explicit step of ``sim`` (a :class:`pimpm.simulation.Simulation`).
     Returns the step's data; raises StepFailed, leaving the particles as they
-    were."""
+    were. With several velocity fields (:mod:`pimpm.fields`) every nodal
+    array holds each field's dofs side by side, and the contact pairs' law
+    acts on the fields' new velocities (Bardenhagen et al. 2000)."""
     t0 = wallclock.perf_counter()
     comm, grid, p, dim = sim.comm, sim.grid, sim.particles, sim.dim
+    fields = sim.fields
     with log_stage(sim.stages["P2G"]):
-        node_index, S, G = sim.footprint()
+        grid_index, S, G = sim.footprint()
+        node_index = fields.node_index(grid_index, p["body"])              # the particles' field nodes
         stress = ParticleStress(sim, node_index, S, G)
-        nodal = grid.sum_columns_to_owned(stress.particle_to_grid())      # eq. 2-3, 6: one exchange
-        mass = np.repeat(nodal[:, 0], dim)                                 # per dof
+        nodal = fields.sum_to_owned(grid, stress.particle_to_grid())      # eq. 2-3, 6: one exchange
+        mass = np.repeat(nodal[:, 0], dim)                                 # per (field) dof
         has_mass = mass > sim.mass_floor
         safe_mass = np.where(has_mass, mass, 1.0)
         velocity = np.where(has_mass, nodal[:, 1:1 + dim].reshape(-1) / safe_mass, 0.0)
         fext = sim.nodal_external_force(node_index, S, mass, sim.time)      # eq. 4
         sim.begin_terms(dt)
-        footprint = ExplicitFootprint(node_index, S, G)
+        footprint = ExplicitFootprint(grid_index, S, G)
         for term in sim.terms:                # contact tools: their corners on this footprint
             term.begin_newton(footprint)
-        cons = bc.build_constraints(grid, sim.terms, sim.boundary, mass, dt, sim.mass_floor,
-                                    time=sim.time, functions=sim.functions)
-        velocity = np.where(cons.fixed, cons.value / dt, velocity)
+        cons = bc.build_constraints(grid, sim.terms, sim.boundary, fields.total(grid, mass), dt,
+                                    sim.mass_floor, time=sim.time, functions=sim.functions)
+        fixed, fixed_velocity = fields.spread(grid, cons.fixed), fields.spread(grid, cons.value / dt)
+        if not fields.single:
+            # the pairs' law on the interpolated velocities too (Bardenhagen et al.
+            # 2000): the FLIP update then adds to the particles only what the forces
+            # and the new velocities' contact change, as with one field
+            fields.find_contacts(sim, node_index, S, G, np.where(has_mass, mass, 0.0))
+            velocity = np.where(has_mass, fields.contact(sim, velocity, dt), 0.0)
+        velocity = np.where(fixed, fixed_velocity, velocity)
         update = sim.config["time"]["stress_update"]
         saved = {k: p[k] for k in ["F", "stress"] + ["h_" + n for n in sim.history_fields()]}
         if update == "usf":                                   # stress from the velocity at t
-            _check(sim, dt, saved, *stress.evaluate(grid.owned_to_local(velocity), dt))
+            _check(sim, dt, saved, *stress.evaluate(fields.to_local(grid, velocity, dim), dt))
             stress.commit()
             fint = stress.internal_force()
         else:
@@ -172,15 +188,19 @@ def advance(sim, dt):
             term.add_explicit_force(velocity, dt, net, mass=np.where(has_mass, mass, 0.0))
         acceleration = np.where(has_mass, net / safe_mass, 0.0)                  # eq. 1
         v_new = velocity + acceleration * dt                                     # eq. 7
-        v_new = np.where(cons.fixed, cons.value / dt, v_new)
-        acceleration = np.where(cons.fixed, 0.0, acceleration)
+        v_new = np.where(fixed, fixed_velocity, v_new)
+        if not fields.single:                 # the pairs' contact law on the new velocities
+            v_new = fields.contact(sim, v_new, dt, report=True)
+            v_new = np.where(fixed, fixed_velocity, np.where(has_mass, v_new, 0.0))
+            acceleration = np.where(has_mass, (v_new - velocity) / dt, 0.0)
+        acceleration = np.where(fixed, 0.0, acceleration)
         # the force the bodies apply
-        forces = cons.reactions(mass * (v_new - velocity) / dt - fext + fint, comm, dim)
+        forces = cons.reactions(fields.total(grid, mass * (v_new - velocity) / dt - fext + fint), comm, dim)
         for term in sim.terms:                 # contact tools: where the step took them, their force
-            term.settle(grid.owned_to_local(v_new * dt))
+            term.settle(grid.owned_to_local(fields.centre_of_mass(grid, mass, v_new) * dt))
             term.report(forces, comm, explicit=True)
-        v_local = grid.owned_to_local(v_new)
-        new_v, new_x, momentum = stress.grid_to_particle(grid.owned_to_local((v_new - velocity) / dt),
+        v_local = fields.to_local(grid, v_new, dim)
+        new_v, new_x, momentum = stress.grid_to_particle(fields.to_local(grid, (v_new - velocity) / dt, dim),
                                                          v_local, dt)             # eq. 9-10
         increments, rigid_moves = sim.rigid_increments(dt)
         new_rigid_x = sim.rigid["x"] + rigid_moves
@@ -192,9 +212,11 @@ def advance(sim, dt):
             # modified USL: the velocity gradient comes from the updated
             # particle momenta mapped back to the grid, which keeps nodes
             # with tiny mass (body edges) from driving huge strain rates
-            remapped = np.where(has_mass, grid.sum_to_owned(momentum) / safe_mass, 0.0)
-            remapped = np.where(cons.fixed, cons.value / dt, remapped)
-            failures = stress.evaluate(grid.owned_to_local(remapped), dt)
+            remapped = np.where(has_mass, fields.sum_to_owned(grid, momentum).reshape(-1) / safe_mass, 0.0)
+            if not fields.single:
+                remapped = fields.contact(sim, remapped, dt)
+            remapped = np.where(fixed, fixed_velocity, remapped)
+            failures = stress.evaluate(fields.to_local(grid, remapped, dim), dt)
         _check(sim, dt, saved, *failures, outside=outside)       # one reduction for the three checks
         if update != "usf":
             stress.commit()
@@ -207,7 +229,9 @@ def advance(sim, dt):
         sim.rigid["x"] = new_rigid_x
     with log_stage(sim.stages["Migration"]):
         sim.migrate(disorder=SORT_DISORDER, lazy=True)
-    return sim.finish_step(dt, t0, forces, {"mass": mass, "velocity": v_new,
-                                            "acceleration": acceleration,
-                                            "displacement_increment": v_new * dt},
+    return sim.finish_step(dt, t0, forces, {"mass": fields.total(grid, mass),
+                                            "velocity": fields.centre_of_mass(grid, mass, v_new),
+                                            "acceleration": fields.centre_of_mass(grid, mass, acceleration),
+                                            "displacement_increment": fields.centre_of_mass(grid, mass,
+                                                                                            v_new * dt)},
                            explicit=True)

@@ -1,0 +1,214 @@
+"""Compiled kernels of contact between deformable bodies that each carry
+their own grid velocity field (:mod:`pimpm.fields`; Bardenhagen, Brackbill &
+Sulsky 2000, with the contact detected at the particles' true surfaces).
+
+A body's field lives on "field nodes": grid node i of field f is field
+node ``i * n_fields + f``, so the transfer kernels run unchanged on the
+particles' field-node indices and a DMDA of ``n_fields`` times the dofs
+holds every field of a node side by side.
+
+At a node that two fields f and g both reach:
+
+- each field's outward normal comes from its mass gradient
+  (:func:`outward_normals`);
+- the gap is the distance between the two bodies' surfaces near the node
+  along a normal: each field's farthest particle-domain point along it over
+  the particles that reach the node (:func:`surface_extents`), so contact
+  engages where the particles' domains meet, not a cell early. Of the two
+  fields' normals the one with the larger gap is the contact normal n (the
+  separating axis: a flat face's normal, not that of a corner sliding on
+  it);
+- if over the step the relative normal velocity w_n = (v_f - v_g) . n would
+  close more than the gap, equal and opposite impulses remove the excess
+  (no interpenetration), and never pull (the bodies separate freely);
+- tangentially Coulomb's law: the impulse that would stop the relative
+  sliding, at most mu times the normal impulse (stick; otherwise slip);
+- a bonded pair moves with its centre-of-mass velocity (one shared field).
+"""
+import numpy as np
+
+from .jit import jit
+
+BONDED, FRICTIONLESS, FRICTION = 0, 1, 2
+#: a node's contact state (the largest over its pairs)
+OPEN, STICK, SLIP = 0, 1, 2
+#: candidate contact normals per field and node (:func:`outward_normals`)
+AXES = 3
+#: the per-pair sums kept by :func:`pair_impulses`: normal and tangential
+#: impulse, nodes in contact, frictional dissipation
+PAIR_SUMS = 4
+
+
+@jit
+def mass_gradients(axes, footprint, node_index, G, mass, out):
+    """out[i] = sum_p m_p grad S_i(x_p) over the particles of each field node
+    i (``out`` (n_field_nodes, dim), zeroed here): it points out of the
+    body's particles, towards the node."""
+    out[:] = 0.0
+    for p in range(node_index.shape[0]):
+        m = mass[p]
+        for k in footprint:
+            i = node_index[p, k]
+            for a in axes:
+                out[i, a] += m * G[p, k, a]
+
+
+@jit
+def outward_normals(mass, gradient, floor, out, partner):
+    """At the owned nodes where fields meet (``mass`` (n, F), ``gradient``
+    (n, F, dim)), field f's candidate contact normals (``out`` (n, F,
+    AXES, dim)): ``out[:, f, 0]`` its own unit outward normal, ``out[:, f,
+    1]`` the opposite of its partner's (the other field with the most mass
+    there, ``partner`` (n, F); -1 where f meets no other field, and the
+    normals zero), ``out[:, f, 2]`` the mean of the two. grad m_f = sum_p m_p grad S_i(x_p) points
+    out of body f (each grad S_i(x_p) points from the particle towards the
+    node)."""
+    n, n_fields, dim = gradient.shape
+    out[:] = 0.0
+    partner[:] = -1
+    for i in range(n):
+        present = 0
+        for f in range(n_fields):
+            if mass[i, f] > floor:
+                present += 1
+        if present < 2:
+            continue
+        for f in range(n_fields):
+            if mass[i, f] <= floor:
+                continue
+            length = 0.0
+            for a in range(dim):
+                length += gradient[i, f, a] * gradient[i, f, a]
+            length = np.sqrt(length)
+            if length > 0.0:
+                for a in range(dim):
+                    out[i, f, 0, a] = gradient[i, f, a] / length
+            most = 0.0
+            for g in range(n_fields):
+                if g != f and mass[i, g] > most and mass[i, g] > floor:
+                    most, partner[i, f] = mass[i, g], g
+        for f in range(n_fields):
+            g = partner[i, f]
+            if g < 0:
+                continue
+            length = 0.0
+            for a in range(dim):
+                out[i, f, 1, a] = -out[i, g, 0, a]
+                out[i, f, 2, a] = out[i, f, 0, a] - out[i, g, 0, a]
+                length += out[i, f, 2, a] * out[i, f, 2, a]
+            length = np.sqrt(length)
+            for a in range(dim):
+                out[i, f, 2, a] = out[i, f, 2, a] / length if length > 0.0 else 0.0
+
+
+@jit
+def surface_extents(axes, footprint, node_index, S, x, half, normal, out):
+    """out[i, j] = the largest x_p . n + sum_a |n_a| l_pa over the particles
+    with a weight at field node i, for its field's candidate normals n =
+    normal[i, j] (:func:`outward_normals`; l_p the particle domain's half
+    sizes): how far along n the body's surface reaches near the node.
+    ``out`` holds -1e300 where no particle reaches or the normal is zero
+    (set here)."""
+    out[:] = -1e300
+    for p in range(node_index.shape[0]):
+        for k in footprint:
+            if S[p, k] <= 0.0:
+                continue
+            i = node_index[p, k]
+            for j in range(AXES):
+                e = 0.0
+                length = 0.0
+                for a in axes:
+                    e += x[p, a] * normal[i, j, a] + abs(normal[i, j, a]) * half[p, a]
+                    length += normal[i, j, a] * normal[i, j, a]
+                if length > 0.0 and e > out[i, j]:
+                    out[i, j] = e
+
+
+@jit
+def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, sums, status):
+    """Apply the contact law to the end-of-step velocities ``velocity`` (n,
+    F, dim; in place) at every owned node two fields reach (``mass`` (n,
+    F), ``normal``, ``partner``: :func:`outward_normals`, ``extent`` the
+    surfaces' reach along the normals, ``law`` and ``mu`` (F, F) each pair's law and
+    coefficient). Adds each pair's normal and tangential impulse, contact
+    nodes and frictional dissipation into ``sums`` (F * F, PAIR_SUMS) and
+    sets ``status`` (n,). The impulses are equal and opposite: momentum is
+    kept exactly."""
+    n, n_fields, dim = velocity.shape
+    w = np.empty(dim)
+    nv = np.empty(dim)
+    status[:] = OPEN
+    for i in range(n):
+        for f in range(n_fields):
+            mf = mass[i, f]
+            if mf <= floor:
+                continue
+            for g in range(f + 1, n_fields):
+                mg = mass[i, g]
+                if mg <= floor:
+                    continue
+                reduced = mf * mg / (mf + mg)
+                row = f * n_fields + g
+                if law[f, g] == BONDED:                  # one field: the centre-of-mass velocity
+                    for a in range(dim):
+                        dv = velocity[i, f, a] - velocity[i, g, a]
+                        velocity[i, f, a] -= reduced * dv / mf
+                        velocity[i, g, a] += reduced * dv / mg
+                    if status[i] < STICK:
+                        status[i] = STICK
+                    continue
+                # the separating axis: of f's own outward normal, the opposite of
+                # g's and their mean, the one along which the surfaces are
+                # farthest apart (a flat face's normal, not the rounded corner's of
+                # a block sliding on it)
+                gap = -1e300
+                if partner[i, f] == g and partner[i, g] == f:
+                    for j in range(AXES):
+                        # g's candidates are f's, reversed: its own is f's second
+                        opposite = 1 if j == 0 else (0 if j == 1 else 2)
+                        candidate = -(extent[i, f, j] + extent[i, g, opposite])
+                        if candidate > gap:
+                            gap = candidate
+                            for a in range(dim):
+                                nv[a] = normal[i, f, j, a]
+                length = 0.0
+                for a in range(dim):
+                    length += nv[a] * nv[a]
+                if gap <= -1e299 or length <= 0.0:
+                    continue
+                wn = 0.0
+                for a in range(dim):
+                    w[a] = velocity[i, f, a] - velocity[i, g, a]
+                    wn += w[a] * nv[a]
+                allowed = max(gap, 0.0) / dt
+                if wn <= allowed:                        # not closing the gap over the step: open
+                    continue
+                pn = reduced * (wn - allowed)            # the normal impulse's size, on g along +n
+                wt2 = 0.0
+                for a in range(dim):
+                    w[a] -= wn * nv[a]                   # tangential relative velocity
+                    wt2 += w[a] * w[a]
+                wt = np.sqrt(wt2)
+                pt = 0.0                                 # the tangential impulse's size, against w_t
+                state = STICK
+                if law[f, g] == FRICTION and wt > 0.0:
+                    pt = reduced * wt                    # what stops the sliding
+                    if pt > mu[f, g] * pn:
+                        pt = mu[f, g] * pn
+                        state = SLIP
+                elif law[f, g] == FRICTIONLESS:
+                    state = SLIP
+                for a in range(dim):
+                    impulse = pn * nv[a] + (pt * w[a] / wt if wt > 0.0 else 0.0)
+                    velocity[i, f, a] -= impulse / mf
+                    velocity[i, g, a] += impulse / mg
+                # the friction force's work on the step's slip (the positions move
+                # with the new velocities)
+                wt_after = wt - pt / reduced
+                sums[row, 0] += pn
+                sums[row, 1] += pt
+                sums[row, 2] += 1.0
+                sums[row, 3] += pt * wt_after
+                if status[i] < state:
+                    status[i] = state

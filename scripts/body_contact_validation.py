@@ -1,0 +1,195 @@
+"""The benchmarks of docs/VALIDATION.md "Bodies that collide, slide and
+separate" (issue 30: one grid velocity field per body, contact between the
+fields), refined in h: Nairn's block pushed along a deformable plane
+(``inputs/block_on_plane.yaml``, acceleration against the exact one) and
+two elastic disks colliding head-on along a grid axis (momentum, the time
+they touch, their closest approach, the coefficient of restitution),
+and Sulsky & Kaul's diagonal collision (``inputs/colliding_disks_contact.yaml``).
+Explicit. Prints a table per benchmark and writes the numbers as JSON.
+
+    python scripts/body_contact_validation.py [--json docs/data/validation_body_contact.json]
+
+Serial (tests/test_body_contact.py checks 2 ranks); about a minute.
+tests/test_body_contact.py runs the same functions."""
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+import petsc4py
+
+petsc4py.init(sys.argv[:1])
+from mpi4py import MPI  # noqa: E402
+
+from pimpm.config import load_config, validate  # noqa: E402
+from pimpm.simulation import Simulation  # noqa: E402
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+INPUTS = os.path.join(os.path.dirname(HERE), "inputs")
+#: Nairn's test: the forces (N, for a 5 mm thickness) and the block's mass (kg)
+PRESS, PUSH, BLOCK_MASS = 35.293, 35.294, 0.003
+
+
+def block_acceleration_exact(mu):
+    """The block's acceleration after the ramp: (push - mu press) / mass."""
+    return (PUSH - mu * PRESS) / BLOCK_MASS
+
+
+def block_on_plane_config(h=2.5e-3, law="friction", mu=0.5, shape=None, end_time=None):
+    """``inputs/block_on_plane.yaml`` at cells of ``h`` (m); ``law`` None:
+    no contact pair (one shared field)."""
+    overrides = [f"grid.cells=[{int(round(0.140 / h))}, {int(round(0.045 / h))}]"]
+    if law is None:
+        overrides.append("contact=null")
+    else:
+        pair = f"{{bodies: [block, plane], law: {law}" + (f", friction_coefficient: {mu}}}" if law == "friction"
+                                                         else "}")
+        overrides.append(f"contact=[{pair}]")
+    if shape:
+        overrides.append(f"grid.shape_functions={shape}")
+    if end_time:
+        overrides.append(f"time.end_time={end_time}")
+    return load_config(os.path.join(INPUTS, "block_on_plane.yaml"), overrides)
+
+
+def body_sums(sim, body):
+    """Mass, momentum and first moment of body ``body``'s particles (summed over ranks)."""
+    p = sim.particles
+    mine = p["body"] == body
+    m = p["mass"][mine]
+    local = np.concatenate([[np.sum(m)], m @ p["v"][mine], m @ p["x"][mine]])
+    return sim.comm.allreduce(local)
+
+
+def block_on_plane(config, comm=MPI.COMM_WORLD):
+    """Run it; the block's acceleration fitted to its mean velocity after
+    the ramp (t >= 0.2 ms), the time its velocity line crosses zero, the
+    energy balance (kinetic + strain + frictional dissipation over the
+    external work) and the steps."""
+    sim = Simulation(config, comm)
+    block = sim.body_names.index("block")
+    t, v, info = [], [], None
+    end = config["time"]["end_time"]
+    while sim.time < end * (1 - 1e-12):
+        info = sim.advance(min(sim.stable_time_step(), end - sim.time))
+        s = body_sums(sim, block)
+        t.append(sim.time)
+        v.append(s[1] / s[0])
+    t, v = np.array(t), np.array(v)
+    late = t >= 0.2e-3
+    a, b = np.polyfit(t[late], v[late], 1)
+    dissipation = info.get("frictional_dissipation", 0.0)
+    balance = (info["kinetic_energy"] + info["strain_energy"] + dissipation) / info["external_work"]
+    return {"acceleration": float(a), "start": float(-b / a), "energy_balance": float(balance),
+            "steps": sim.step_index}
+
+
+def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_time=8.0):
+    """Two elastic disks (Sulsky & Kaul 3.1.1's, diameter 0.4) colliding
+    head-on along x at 2 x ``speed``, their surfaces 0.05 apart at the start
+    and on a particle-domain boundary at every resolution (centres at 0.275
+    and 0.725): they touch at t = 0.05 / (2 speed). ``law`` None: one shared
+    field."""
+    raw = {"grid": {"lower": [0, 0], "upper": [1, 1], "cells": [cells, cells], "shape_functions": shape},
+           "materials": {"elastic": {"model": "neo_hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3,
+                                     "density": 1000.0}},
+           "bodies": [{"name": "left", "material": "elastic", "particles_per_cell": 2, "velocity": [speed, 0],
+                       "geometry": {"type": "ball", "center": [0.275, 0.5], "radius": 0.2}},
+                      {"name": "right", "material": "elastic", "particles_per_cell": 2, "velocity": [-speed, 0],
+                       "geometry": {"type": "ball", "center": [0.725, 0.5], "radius": 0.2}}],
+           "time": {"integrator": "explicit", "end_time": end_time}}
+    if law:
+        raw["contact"] = [{"bodies": ["left", "right"], "law": law}]
+    return validate(raw)
+
+
+def disks(config, comm=MPI.COMM_WORLD):
+    """Run two colliding disks (bodies 0 and 1); returns the largest change
+    of the total momentum over the run relative to one disk's initial
+    momentum, the first time the pair was in contact and the gap closed per
+    step then, the closest approach of the centres, the coefficient of
+    restitution (the relative velocity of the centres after over before),
+    the total energy after over before, and how far apart along the line
+    of centres the two disks' nearest particles are at the end."""
+    sim = Simulation(config, comm)
+    pair = sim.fields.names[0] if sim.fields.names else None
+
+    def state():
+        a, b = body_sums(sim, 0), body_sums(sim, 1)
+        dim = sim.dim
+        return (a[1:1 + dim] + b[1:1 + dim], a[1 + dim:] / a[0], b[1 + dim:] / b[0],
+                a[1:1 + dim] / a[0], b[1:1 + dim] / b[0], np.linalg.norm(a[1:1 + dim]))
+
+    momentum0, ca, cb, va0, vb0, reference = state()
+    line = (cb - ca) / np.linalg.norm(cb - ca)
+    energy0 = sim.kinetic_energy() + sim.strain_energy()
+    drift, closest, touch, closing = 0.0, np.inf, None, None
+    end = config["time"]["end_time"]
+    while sim.time < end * (1 - 1e-12):
+        dt = min(sim.stable_time_step(), end - sim.time)
+        info = sim.advance(dt)
+        momentum, ca, cb, va, vb, _ = state()
+        drift = max(drift, float(np.max(np.abs(momentum - momentum0))) / reference)
+        closest = min(closest, float(np.linalg.norm(cb - ca)))
+        if touch is None and pair and info["contact"][pair]["contact_points"] > 0:
+            touch, closing = sim.time - dt, float((va - vb) @ line * dt)
+    p = sim.particles
+    along = p["x"] @ line
+    first = comm.allreduce(float(np.max(along[p["body"] == 0], initial=-np.inf)), op=MPI.MAX)
+    second = comm.allreduce(float(np.min(along[p["body"] == 1], initial=np.inf)), op=MPI.MIN)
+    return {"momentum_drift": drift, "touch": touch, "closing_per_step": closing, "closest": closest,
+            "restitution": float(-((va - vb) @ line) / ((va0 - vb0) @ line)),
+            "energy_ratio": float((info["kinetic_energy"] + info["strain_energy"]) / energy0),
+            "apart": second - first, "steps": sim.step_index}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", help="write the numbers here")
+    args = parser.parse_args()
+    out = {"block_on_plane": [], "disks": [], "disks_diagonal": []}
+    start = time.perf_counter()
+    print("Nairn's block on a deformable plane (explicit): acceleration after the ramp")
+    print(f"{'h (mm)':>7} {'law':>13} {'a (m/s^2)':>11} {'exact':>9} {'error':>8} {'v=0 at (ms)':>11} "
+          f"{'energy':>7} {'steps':>6}")
+    for h in (5e-3, 2.5e-3, 1.25e-3):
+        for law, mu in (("friction", 0.5), ("frictionless", 0.0), (None, 0.0)):
+            r = block_on_plane(block_on_plane_config(h, law, mu))
+            exact = block_acceleration_exact(mu) if law else block_acceleration_exact(mu)
+            r.update(h=h, law=law or "one field", mu=mu, exact=exact)
+            out["block_on_plane"].append(r)
+            print(f"{h * 1e3:7.2f} {r['law']:>13} {r['acceleration']:11.1f} {exact:9.1f} "
+                  f"{r['acceleration'] / exact - 1:+8.2%} {r['start'] * 1e3:11.4f} {r['energy_balance']:7.4f} "
+                  f"{r['steps']:6d}")
+    print("\nTwo disks colliding head-on (explicit, frictionless pair; touching at t = 2.5)")
+    print(f"{'cells':>5} {'shape':>6} {'law':>12} {'touch':>7} {'closest':>8} {'restitution':>11} "
+          f"{'energy':>7} {'momentum':>9} {'steps':>6}")
+    for shape in ("linear", "gimp"):
+        for cells in (20, 40, 80):
+            for law in ("frictionless", None):
+                if law is None and cells > 20:
+                    continue
+                r = disks(disks_config(cells, law, shape))
+                r.update(cells=cells, shape=shape, law=law or "one field")
+                out["disks"].append(r)
+                touch = f"{r['touch']:7.3f}" if r["touch"] is not None else f"{'-':>7}"
+                print(f"{cells:5d} {shape:>6} {r['law']:>12} {touch} {r['closest']:8.5f} {r['restitution']:11.4f} "
+                      f"{r['energy_ratio']:7.4f} {r['momentum_drift']:9.1e} {r['steps']:6d}")
+    print("\nSulsky & Kaul's disks, diagonal (inputs/colliding_disks_contact.yaml, to t = 150)")
+    for law in ("frictionless", None):
+        overrides = [] if law else ["contact=null"]
+        r = disks(load_config(os.path.join(INPUTS, "colliding_disks_contact.yaml"), overrides))
+        r.update(law=law or "one field")
+        out["disks_diagonal"].append(r)
+        print(f"{r['law']:>12}: closest {r['closest']:.4f}, restitution {r['restitution']:.4f}, energy after/before "
+              f"{r['energy_ratio']:.4f}, momentum drift {r['momentum_drift']:.1e}, {r['steps']} steps")
+    print(f"\n{time.perf_counter() - start:.0f} s")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,196 @@
+"""Deformable bodies with a grid velocity field each and contact between the
+fields (issue 30, pimpm.fields, pimpm.kernels.multifield), explicit: the
+input's contact pairs, a bonded pair that is one shared field, Nairn's block
+pushed along a deformable plane against its exact acceleration, and two
+disks that collide, touch at their surfaces and separate, with momentum
+kept to round-off; the same on 1, 2 and 4 ranks. The benchmarks are those
+of scripts/body_contact_validation.py (docs/VALIDATION.md)."""
+import csv
+import os
+import sys
+
+import numpy as np
+import petsc4py
+
+petsc4py.init([])
+import pytest  # noqa: E402
+from mpi4py import MPI  # noqa: E402
+
+from helpers import HERE, ROOT, run_mpi, run_pimpm  # noqa: E402
+from pimpm.config import ConfigError, validate  # noqa: E402
+from pimpm.simulation import Simulation  # noqa: E402
+
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from body_contact_validation import (block_acceleration_exact, block_on_plane, block_on_plane_config,  # noqa: E402
+                                     disks, disks_config)
+
+
+def pair_input(**changes):
+    raw = {"grid": {"lower": [0, 0], "upper": [4, 4], "cells": [4, 4]},
+           "materials": {"m": {"model": "neo_hookean", "shear_modulus": 1.0, "bulk_modulus": 2.0, "density": 1.0}},
+           "bodies": [{"name": "a", "material": "m", "geometry": {"type": "box", "lower": [0, 0], "upper": [2, 1]}},
+                      {"name": "b", "material": "m", "geometry": {"type": "box", "lower": [0, 1], "upper": [2, 2]}},
+                      {"name": "tool", "rigid": True, "velocity": [0, 0],
+                       "geometry": {"type": "box", "lower": [0, 3], "upper": [2, 3.5]}}],
+           "contact": [{"bodies": ["a", "b"], "law": "friction", "friction_coefficient": 0.3}],
+           "time": {"integrator": "explicit", "end_time": 1.0}}
+    for key, value in changes.items():
+        raw[key] = value
+    return raw
+
+
+def test_contact_pairs_are_normalized():
+    config = validate(pair_input(contact=[{"bodies": ["b", "a"], "law": "frictionless"},
+                                          {"bodies": ["a", "c"], "law": "bonded"}],
+                                 bodies=pair_input()["bodies"] + [
+                                     {"name": "c", "material": "m",
+                                      "geometry": {"type": "box", "lower": [2, 0], "upper": [3, 1]}}]))
+    assert config["contact"] == [{"bodies": ["b", "a"], "law": "frictionless"},
+                                 {"bodies": ["a", "c"], "law": "bonded"}]
+    assert validate(pair_input(contact=None))["contact"] == []
+
+
+@pytest.mark.parametrize("contact,key,expected", [
+    ({"bodies": ["a", "b"]}, "contact", "a list of contact pairs"),
+    ([{"law": "frictionless"}], "contact[0].bodies", "two different deformable bodies"),
+    ([{"bodies": ["a"], "law": "frictionless"}], "contact[0].bodies", "two different deformable bodies"),
+    ([{"bodies": ["a", "a"], "law": "frictionless"}], "contact[0].bodies", "two different deformable bodies"),
+    ([{"bodies": ["a", "ghost"], "law": "frictionless"}], "contact[0].bodies[1]", "a deformable body"),
+    ([{"bodies": ["a", "tool"], "law": "frictionless"}], "contact[0].bodies[1]", "its own 'contact' key"),
+    ([{"bodies": ["a", "b"]}], "contact[0].law", "bonded, frictionless, friction"),
+    ([{"bodies": ["a", "b"], "law": "sticky"}], "contact[0].law", "bonded"),
+    ([{"bodies": ["a", "b"], "law": "friction"}], "contact[0].friction_coefficient", "a number >= 0"),
+    ([{"bodies": ["a", "b"], "law": "friction", "friction_coefficient": -0.1}],
+     "contact[0].friction_coefficient", "a number >= 0"),
+    ([{"bodies": ["a", "b"], "law": "friction", "friction_coefficient": float("nan")}],
+     "contact[0].friction_coefficient", "a number >= 0"),
+    ([{"bodies": ["a", "b"], "law": "friction", "friction_coefficient": float("inf")}],
+     "contact[0].friction_coefficient", "a number >= 0"),
+    ([{"bodies": ["a", "b"], "law": "friction", "friction_coefficient": "rough"}],
+     "contact[0].friction_coefficient", "a number >= 0"),
+    ([{"bodies": ["a", "b"], "law": "frictionless", "friction_coefficient": 0.2}],
+     "contact[0].friction_coefficient", "only with law: friction"),
+    ([{"bodies": ["a", "b"], "law": "bonded"}, {"bodies": ["b", "a"], "law": "frictionless"}],
+     "contact[1].bodies", "not already declared in contact[0]"),
+    ([{"bodies": ["a", "b"], "law": "bonded", "stiffness": 1}], "contact[0].stiffness", "unknown key"),
+])
+def test_bad_contact_pairs_are_refused_naming_the_key(contact, key, expected):
+    with pytest.raises(ConfigError) as err:
+        validate(pair_input(contact=contact))
+    assert err.value.path == key and expected in str(err.value), str(err.value)
+
+
+@pytest.mark.parametrize("change,key,expected", [
+    ({"time": {"integrator": "newmark", "dt": 0.1, "end_time": 1.0}}, "contact", "time.integrator: explicit"),
+    ({"materials": {"m": {"model": "neo_hookean", "shear_modulus": 1.0, "bulk_modulus": 2.0, "density": 1.0,
+                          "f_bar": True}}}, "materials.m.f_bar", "F-bar's cell averages"),
+])
+def test_what_contact_pairs_do_not_run_with_yet_is_refused(change, key, expected):
+    with pytest.raises(ConfigError) as err:
+        validate(pair_input(**change))
+    assert err.value.path == key and expected in str(err.value), str(err.value)
+
+
+def test_a_frictional_tool_with_contact_pairs_is_refused():
+    raw = pair_input()
+    raw["bodies"][2].update(contact="frictionless", geometry={"type": "box", "lower": [0, 3], "upper": [2, 3.5]})
+    with pytest.raises(ConfigError) as err:
+        validate(raw)
+    assert err.value.path == "bodies[2].contact" and "expected bonded" in str(err.value)
+
+
+def run_disks(config, t_end):
+    sim = Simulation(dict(config, time=dict(config["time"], end_time=t_end)), MPI.COMM_SELF)
+    while sim.time < t_end * (1 - 1e-12):
+        sim.advance(min(sim.stable_time_step(), t_end - sim.time))
+    order = np.argsort(sim.particles["id"])
+    return sim.particles["x"][order], sim.particles["v"][order]
+
+
+def test_a_bonded_pair_moves_as_one_shared_field():
+    """Two fields welded where they meet are the one field of today, through an impact."""
+    x1, v1 = run_disks(disks_config(20, law="bonded"), 3.2)
+    x0, v0 = run_disks(disks_config(20, law=None), 3.2)
+    assert np.max(np.abs(x1 - x0)) < 1e-12 and np.max(np.abs(v1 - v0)) < 1e-12 * 0.01 * 1e3
+
+
+@pytest.fixture(scope="module")
+def head_on():
+    return {cells: disks(disks_config(cells), MPI.COMM_SELF) for cells in (20, 40)}
+
+
+def test_colliding_disks_touch_rebound_and_separate(head_on):
+    for cells, r in head_on.items():
+        h = 1.0 / cells
+        assert r["momentum_drift"] < 1e-10
+        # the surfaces (on a particle-domain boundary) meet at t = 2.5: contact engages then, not a cell early
+        assert r["touch"] <= 2.5 <= r["touch"] + 1.5 * r["closing_per_step"] / 0.02
+        # the centres come closer than the diameter by the elastic flattening: less than 0.01, what
+        # the plane-strain Hertz line contact gives if all the kinetic energy went into it
+        assert 0.39 < r["closest"] < 0.4
+        # they fly apart, no particle of one left with the other
+        assert r["apart"] > h and r["restitution"] > 0.75
+        assert 0.97 < r["energy_ratio"] < 1.0
+    assert head_on[40]["restitution"] > head_on[20]["restitution"]
+    assert abs(head_on[40]["closest"] - head_on[20]["closest"]) < 0.05 * (1.0 / 20)
+
+
+def test_one_shared_field_turns_the_disks_back_a_cell_apart():
+    """What the contact pair mends: with one field the disks stick and turn back before they touch."""
+    r = disks(disks_config(20, law=None), MPI.COMM_SELF)
+    assert r["closest"] > 0.4 + 0.8 / 20 and r["restitution"] < 0.2
+
+
+@pytest.mark.parametrize("law,mu", [("friction", 0.5), ("frictionless", 0.0)])
+def test_block_slides_on_a_deformable_plane_at_the_exact_acceleration(law, mu):
+    """Nairn's friction test at 5 mm cells: a = (push - mu press) / m to 2%,
+    v = a (t - 0.05 ms) after the ramp, and the energy balance closed with the
+    frictional dissipation."""
+    r = block_on_plane(block_on_plane_config(5e-3, law, mu), MPI.COMM_SELF)
+    exact = block_acceleration_exact(mu)
+    assert abs(r["acceleration"] / exact - 1) < 0.02, r
+    assert abs(r["start"] - 0.05e-3) < 0.002e-3, r
+    assert abs(r["energy_balance"] - 1) < 0.01, r
+
+
+def test_without_the_pair_the_block_does_not_slide():
+    r = block_on_plane(block_on_plane_config(5e-3, None, 0.0, end_time=0.3e-3), MPI.COMM_SELF)
+    assert abs(r["acceleration"]) < 0.05 * block_acceleration_exact(0.0)
+
+
+@pytest.mark.mpi
+def test_contact_pairs_give_the_same_answer_on_1_2_and_4_ranks(tmp_path):
+    """The disks through their impact and the frictional block: 1, 2 and 4
+    (2 x 2) ranks agree to 1e-8; the CLI's history has the pair's columns."""
+    results = []
+    for n in (1, 2, 4):
+        out = tmp_path / f"ranks{n}.npz"
+        proc = run_mpi(n, [os.path.join(HERE, "mpi", "body_contact_check.py"), out])
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+        results.append(np.load(out))
+    for other in results[1:]:
+        for key in results[0].files:
+            scale = max(np.max(np.abs(results[0][key])), 1e-30)
+            assert np.max(np.abs(other[key] - results[0][key])) <= 1e-8 * scale, key
+
+
+@pytest.mark.mpi
+def test_the_cli_runs_a_contact_pair_on_two_ranks_and_reports_it(tmp_path):
+    proc = run_pimpm(2, [os.path.join(ROOT, "inputs", "block_on_plane.yaml"), "--output", tmp_path / "out",
+                         "--set", "time.end_time=2e-5", "--set", "grid.cells=[28, 9]"])
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    with open(tmp_path / "out" / "history.csv") as f:
+        rows = list(csv.DictReader(f))
+    for column in ("normal_force", "tangential_force", "contact_area", "contact_points"):
+        assert f"block-plane_{column}" in rows[0]
+    assert float(rows[-1]["block-plane_normal_force"]) > 0 and int(rows[-1]["block-plane_contact_points"]) > 0
+    assert float(rows[-1]["frictional_dissipation"]) >= 0
+    assert (tmp_path / "out" / "grid.xdmf").exists() and (tmp_path / "out" / "particles.xdmf").exists()
+
+
+def test_a_bad_pair_on_the_command_line_exits_2_without_output(tmp_path):
+    proc = run_pimpm(None, [os.path.join(ROOT, "inputs", "block_on_plane.yaml"), "--output", tmp_path / "out",
+                            "--set", "contact=[{bodies: [block, plane], law: friction, friction_coefficient: -1}]"])
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "contact[0].friction_coefficient = -1" in proc.stderr + proc.stdout
+    assert not (tmp_path / "out").exists()
