@@ -47,6 +47,13 @@ class BodyFields:
         self.last = {name: dict.fromkeys(PAIR_COLUMNS, 0.0) for name, _, _ in self.pairs}
         self.status = None              # owned nodes' contact state at the last step
 
+    def state(self):
+        """What a checkpoint keeps (the pairs' law is stateless: only the account)."""
+        return {"dissipation": self.dissipation}
+
+    def restore(self, state):
+        self.dissipation = float(state.get("dissipation", 0.0))
+
     @property
     def single(self):
         return self.count == 1

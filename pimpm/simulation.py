@@ -230,7 +230,8 @@ class Simulation:
             fields[name] = pset
         self.particles, self.rigid = fields["particles"], fields["rigid"]
         for load in self.loads:
-            load.total_share = self.comm.allreduce(float(np.sum(self.particles[load.field])))
+            load.total_share = checkpoint.loads.get(load.name) if load.name in checkpoint.loads else \
+                self.comm.allreduce(float(np.sum(self.particles[load.field])))
         self.time = checkpoint.time
         self.step_index = checkpoint.step
         for key in ("last_forces", "displacements"):
@@ -239,6 +240,7 @@ class Simulation:
                     raise SetupError(f"the checkpoint's work account ({key} of {name!r}: {vector}): expected "
                                      f"{self.dim} numbers, in an intact checkpoint")
         self.work.restore(checkpoint.work)
+        self.fields.restore(checkpoint.fields)
         for term in self.terms:
             if term.name in checkpoint.terms:
                 try:

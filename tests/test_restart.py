@@ -65,11 +65,21 @@ def upsetting():
     return raw
 
 
+def block_on_plane():
+    """Two deformable bodies with a field each and Coulomb friction (pimpm.fields): 80 steps."""
+    with open(os.path.join(ROOT, "inputs", "block_on_plane.yaml")) as f:
+        raw = yaml.safe_load(f)
+    raw["grid"]["cells"] = [28, 9]
+    raw["time"]["end_time"] = 0.2e-3
+    return raw
+
+
 CASES = {
     "quasi-static billet": (lambda: coarse_billet("quasi_static"), 7),
     "Newmark billet": (billet_newmark, 4),
     "J2 upsetting": (upsetting, 4),
     "explicit bar": (bar_explicit, 50),
+    "explicit contact pair": (block_on_plane, 40),
 }
 
 

@@ -38,7 +38,10 @@ PHYSICS_KEYS = ("dim", "grid", "kinematics", "materials", "bodies")
 
 
 def physics_json(config):
-    return json.dumps({k: config[k] for k in PHYSICS_KEYS}, sort_keys=True, default=float)
+    """The physical part of the input; its contact pairs too when it has
+    some (so that checkpoints without pairs read as before)."""
+    keys = PHYSICS_KEYS + (("contact",) if config.get("contact") else ())
+    return json.dumps({k: config[k] for k in keys}, sort_keys=True, default=float)
 
 
 def _open(path, mode, comm):
@@ -79,6 +82,10 @@ def write_checkpoint(sim, control, directory):
         f.attrs["control"] = json.dumps(control.state())
         f.attrs["work"] = json.dumps(sim.work.state())
         f.attrs["terms"] = json.dumps({term.name: term.state() for term in sim.terms})
+        f.attrs["fields"] = json.dumps(sim.fields.state())
+        # each load's total share as summed at the start (summed again after the particles
+        # migrated, the last bit of the load's resultant would differ from the run's)
+        f.attrs["loads"] = json.dumps({load.name: load.total_share for load in sim.loads})
         f.attrs["initial"] = json.dumps({"count": int(sim.count0), "rigid_count": int(sim.rigid_count0),
                                          "mass": float(sim.mass0)})
         ranges = f.create_group("ownership_ranges")
@@ -178,6 +185,14 @@ class Checkpoint:
         self.terms = _json_mapping(attrs.get("terms") or "{}", "terms")
         for name, state in self.terms.items():
             _mapping(state, f"terms {name!r}")
+        #: the contact pairs' state (pimpm.fields: the frictional dissipation so far)
+        self.fields = _json_mapping(attrs.get("fields") or "{}", "fields")
+        #: each load's total share (pimpm.loads.Load.total_share)
+        self.loads = _json_mapping(attrs.get("loads") or "{}", "loads")
+        for name, total in self.loads.items():
+            _number(total, f"loads {name!r}")
+        if "dissipation" in self.fields:
+            _number(self.fields["dissipation"], "fields dissipation", 0.0)
         self.ownership_ranges = ranges
         self.proc_sizes = proc_sizes
         self.sets = sets
@@ -306,11 +321,13 @@ def read_checkpoint(directory, comm):
         attrs = {k: f.attrs[k] for k in ("format", "step", "time", "ranks", "physics", "control",
                                           "work", "initial")}
         attrs["terms"] = f.attrs.get("terms", "{}")
+        attrs["fields"] = f.attrs.get("fields", "{}")
+        attrs["loads"] = f.attrs.get("loads", "{}")
         if _integer(attrs["format"], "format", 0) != FORMAT:
             raise KeyError(f"checkpoint format {attrs['format']} (this pimpm reads {FORMAT})")
         physics = attrs["physics"]
         attrs["physics"] = physics.decode() if isinstance(physics, bytes) else str(physics)
-        for k in ("control", "work", "initial", "terms"):
+        for k in ("control", "work", "initial", "terms", "fields", "loads"):
             v = attrs[k]
             attrs[k] = v.decode() if isinstance(v, bytes) else str(v)
         ranks = _integer(attrs["ranks"], "ranks", 1)
