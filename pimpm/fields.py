@@ -11,6 +11,7 @@ field-node indices into the transfer kernels, and a nodal array of the
 fields is the grid's array with ``count`` times the columns (one exchange
 for all fields)."""
 import numpy as np
+from petsc4py import PETSc
 
 from .kernels import multifield as kernels
 
@@ -46,6 +47,20 @@ class BodyFields:
         self.dissipation = 0.0          # frictional dissipation so far (summed over ranks)
         self.last = {name: dict.fromkeys(PAIR_COLUMNS, 0.0) for name, _, _ in self.pairs}
         self.status = None              # owned nodes' contact state at the last step
+        self._slip = None               # implicit: each owned node's pairs' elastic slip (n, F * F, dim)
+
+    def slip_history(self, grid, nodes, fields):
+        """The elastic slip each candidate pair (owned ``nodes`` of ``grid``,
+        ``fields`` (k, 2)) carried in from the last step at its node (zero
+        where there was none): the implicit law's stick (pimpm.terms.pairs)."""
+        if self._slip is None or len(self._slip) != grid.n_owned_nodes:
+            self._slip = np.zeros((grid.n_owned_nodes, self.count * self.count, grid.dim))
+        return self._slip[nodes, fields[:, 0] * self.count + fields[:, 1]].copy()
+
+    def keep_slip(self, nodes, fields, elastic):
+        """The converged step's elastic slips, at their nodes (the others' are forgotten)."""
+        self._slip[:] = 0.0
+        self._slip[nodes, fields[:, 0] * self.count + fields[:, 1]] = elastic
 
     def state(self):
         """What a checkpoint keeps (the pairs' law is stateless: only the account)."""
@@ -134,6 +149,19 @@ class BodyFields:
             grid.n_owned_nodes, count, axes_n)
         self._floor = sim.mass_floor
 
+    def candidates(self, sim, node_index, S, G, nodal_mass):
+        """The implicit step's contact candidates at the owned nodes (after
+        :meth:`find_contacts`' geometry): (grid nodes, (f, g), separating
+        axes, gaps at the start of the step). Collective."""
+        self.find_contacts(sim, node_index, S, G, nodal_mass)
+        n, count, dim = sim.grid.n_owned_nodes, self.count, sim.dim
+        worst = n * count * (count - 1) // 2
+        nodes, fields = np.empty(worst, dtype=np.int64), np.empty((worst, 2), dtype=np.int64)
+        normals, gaps = np.empty((worst, dim)), np.empty(worst)
+        k = kernels.pair_candidates(self._mass, self._normal, self._extent, self._partner, self._floor,
+                                    nodes, fields, normals, gaps)
+        return nodes[:k].copy(), fields[:k].copy(), normals[:k].copy(), gaps[:k].copy()
+
     def contact(self, sim, velocity, dt, report=False):
         """The pairs' law applied to field velocities ``velocity`` (owned,
         per field dof; returned anew) at the contacts :meth:`find_contacts`
@@ -155,3 +183,70 @@ class BodyFields:
                                    "contact_area": float(row[2] * area), "contact_points": int(row[2])}
                 self.dissipation += float(row[3])
         return v.reshape(-1)
+
+
+class FieldGrid:
+    """The grid as the implicit step sees it with several velocity fields
+    (:class:`BodyFields` with count F > 1): a grid whose nodes are the field
+    nodes, i * F + f, F dim unknowns per grid node on a DMDA of F dim dofs
+    (the grid's layout). Field nodes are placed on a virtual grid that is F
+    times finer along x (x' = F x + f), so that the tangent's pattern and
+    kernels (stencil slots from node multi-indices) run unchanged; the
+    stencil's half-width grows to F times the shape functions'. Everything
+    else is the grid's."""
+
+    def __init__(self, grid, count):
+        self.grid = grid
+        self.count = count
+        self.dim = grid.dim
+        self.comm = grid.comm
+        self.da = grid._wide_da(grid.dim * count)[0]
+        self.n_local_nodes = grid.n_local_nodes * count
+        self.n_owned_nodes = grid.n_owned_nodes * count
+        ijk = np.repeat(grid.ghost_ijk, count, axis=0)
+        ijk[:, 0] = ijk[:, 0] * count + np.tile(np.arange(count), grid.n_local_nodes)
+        self.ghost_ijk = ijk
+        self.ghost_shape = grid.ghost_shape.copy()
+        self.ghost_shape[0] *= count
+        self.owned_local_nodes = (grid.owned_local_nodes[:, None] * count + np.arange(count)).reshape(-1)
+        self._scratch = None
+
+    def lgmap(self):
+        """The local-to-global map of the field nodes' dofs in blocks of dim
+        (the DMDA's has blocks of F dim, one per grid node)."""
+        if getattr(self, "_lgmap", None) is None:
+            indices = self.da.getLGMap().getIndices()
+            self._lgmap = PETSc.LGMap().create(indices[::self.dim] // self.dim, bsize=self.dim,
+                                               comm=self.da.getComm())
+        return self._lgmap
+
+    def __getattr__(self, name):          # spacing, lower, cell_volume, contains, ...: the grid's
+        return getattr(self.grid, name)
+
+    def sum_to_owned(self, local_values):
+        """Field-node values (n_local_nodes, dim) summed over ranks: owned dofs (flat). Collective."""
+        k = self.count * self.dim
+        return self.grid.sum_columns_to_owned(np.reshape(local_values, (self.grid.n_local_nodes, k))).reshape(-1)
+
+    def sum_scalar_to_owned(self, local_values):
+        return self.sum_to_owned(np.repeat(np.asarray(local_values)[:, None], self.dim, axis=1))
+
+    def owned_to_local(self, owned_values):
+        """Ghosted-local copy (n_local_nodes, dim) of owned dofs. Collective."""
+        k = self.count * self.dim
+        local = self.grid.owned_columns_to_local(np.reshape(owned_values, (self.grid.n_owned_nodes, k)))
+        return local.reshape(self.n_local_nodes, self.dim)
+
+    def vec_to_local(self, vec):
+        return self.owned_to_local(vec.getArray(readonly=True))
+
+    def coordinates(self):
+        """Every owned dof's node coordinate (a Vec of the field DMDA): the
+        rigid-body modes of each field."""
+        vec = self.da.createGlobalVec()
+        x = self.grid.node_coordinates_owned()
+        vec.getArray()[:] = np.repeat(x[:, None, :], self.count, axis=1).reshape(-1)
+        return vec
+
+    def box_preallocation(self, width):
+        raise NotImplementedError("several velocity fields need the COO assembly")

@@ -315,7 +315,8 @@ def _mumps_workspace(percent):
 
 
 def rigid_body_near_null_space(grid):
-    """Rigid-body modes of the grid (translations and rotations) for GAMG."""
-    coords = grid.da.getCoordinates()
+    """Rigid-body modes of the grid (translations and rotations) for GAMG
+    (with several velocity fields, pimpm.fields.FieldGrid: of each field)."""
+    coords = grid.coordinates() if hasattr(grid, "coordinates") else grid.da.getCoordinates()
     coords.setBlockSize(grid.dim)
     return PETSc.NullSpace().createRigidBody(coords)

@@ -74,6 +74,12 @@ def main():
             config["contact"] = [{"bodies": ["block", "top"], "law": "friction", "friction_coefficient": 0.3}]
             sim = Simulation(validate(config), MPI.COMM_SELF)
             sim.advance(0.5 * sim.stable_time_step())
+            # ... and inside Newton (pimpm.terms.pairs)
+            config["contact"] = [{"bodies": ["block", "top"], "law": "frictionless"}]
+            config["time"] = {"integrator": "newmark", "dt": 0.01, "end_time": 1.0}
+            sim = Simulation(validate(config), MPI.COMM_SELF)
+            sim.advance(0.01)
+            sim.solver.destroy()
     print(f"pimpm: kernels compiled in {time.perf_counter() - start:.1f} s "
           f"(cache: {CACHE_DIRECTORY})")
 

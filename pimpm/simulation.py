@@ -37,7 +37,8 @@ from .stages import log_stage, log_stages
 from .terms import BondedRigidBody, ContactTool, StepContext, make_terms
 from .steps import explicit as explicit_step
 from .steps import implicit as implicit_step
-from .fields import BodyFields
+from .fields import BodyFields, FieldGrid
+from .terms.pairs import FieldContact
 from .transfer import particle_to_grid
 
 __all__ = ["Simulation", "SetupError", "StepFailed"]
@@ -78,6 +79,10 @@ class Simulation:
         self.terms = make_terms(config, self.functions)
         #: the deformable bodies' grid velocity fields and their contact pairs (pimpm.fields)
         self.fields = BodyFields(config)
+        if not self.fields.single and not self.integrator.explicit:     # the pairs' law inside Newton
+            g = config["grid"]
+            h = float(np.min((np.asarray(g["upper"]) - np.asarray(g["lower"])) / np.asarray(g["cells"])))
+            self.terms.append(FieldContact(self.fields, dim, max(m.p_wave_modulus for m in self.materials), h))
         self.loads = make_loads(config, self.functions, self.body_names)
         self.body_material = {i: self.material_names.index(b["material"])
                               for i, b in enumerate(config["bodies"]) if not b.get("rigid", False)}
@@ -260,17 +265,27 @@ class Simulation:
             raise SetupError(f"the checkpoint's particles weigh {mass:.9g} where its run's weighed "
                              f"{self.mass0:.9g}: expected an intact checkpoint")
 
+    @property
+    def solve_grid(self):
+        """The grid whose nodes carry the implicit step's unknowns: the grid,
+        or with several velocity fields their field nodes (pimpm.fields.FieldGrid)."""
+        if self.fields.single:
+            return self.grid
+        if getattr(self, "_field_grid", None) is None or self._field_grid.grid is not self.grid:
+            self._field_grid = FieldGrid(self.grid, self.fields.count)
+        return self._field_grid
+
     def _make_solver(self):
         """The step problem and its Newton solver on the current grid."""
         config = self.config
-        self.problem = StepProblem(self.grid, residual_scale(config, self.materials),
+        self.problem = StepProblem(self.solve_grid, residual_scale(config, self.materials),
                                    formulation=make_formulation(config["time"]["formulation"]),
                                    stages=self.stages,
                                    nonsymmetric_materials=[m.name for m in self.materials
                                                            if not m.symmetric_tangent],
                                    terms=self.terms, f_bar=self.f_bar)
         try:
-            self.solver = NewtonSolver(self.grid, self.problem, config["solver"], self.stages)
+            self.solver = NewtonSolver(self.solve_grid, self.problem, config["solver"], self.stages)
         except (PETSc.Error, ValueError) as err:
             raise SetupError(diagnose_solver_options(config, err)) from None
 
@@ -353,16 +368,24 @@ class Simulation:
     def pattern_width(self):
         """The tangent's stencil half-width: a particle's footprint, and one
         node more with F-bar, whose cell coupling reaches the union of the
-        footprints of a cell's particles (pimpm.kernels.fbar)."""
-        return self.shape.nodes_per_axis - 1 + (1 if self.f_bar else 0)
+        footprints of a cell's particles (pimpm.kernels.fbar); with F
+        velocity fields, F times that on their virtual grid (pimpm.fields.FieldGrid)."""
+        return (self.shape.nodes_per_axis - 1 + (1 if self.f_bar else 0)) * self.fields.count
 
-    def tangent_pattern(self, node_index, active, cells=None):
+    def tangent_pattern(self, node_index, active, cells=None, pairs=None):
         """The couplings of this step's tangent (pimpm.kernels.pattern);
         ``cells``: F-bar's cells (pimpm.fbar.AveragedCells), whose particles
-        couple every node they reach."""
-        grid = self.grid
+        couple every node they reach; ``pairs`` (k, 2): ghosted-local field
+        nodes that the contact pairs couple (pimpm.terms.pairs)."""
+        grid = self.solve_grid
         width = self.pattern_width()
         cells = cells if cells is not None else fbar.NONE
+        if pairs is not None and len(pairs):          # each pair as a footprint of its two field nodes
+            extra = np.zeros((len(pairs), node_index.shape[1]), dtype=node_index.dtype)
+            extra[:, :2] = pairs
+            on = np.zeros(extra.shape, dtype=np.bool_)
+            on[:, :2] = True
+            node_index, active = np.vstack([node_index, extra]), np.vstack([active, on])
         indptr, indices, slots = kernel_pattern.block_pattern(
             node_index, active, grid.ghost_ijk, grid.dim, width, grid.owned_local_nodes,
             grid.n_local_nodes, int(grid.ghost_shape[0]), int(grid.ghost_shape[1]), cells.order, cells.start)
@@ -370,12 +393,13 @@ class Simulation:
         return TangentPattern(width, indptr, indices, slots,
                               scalar_indptr.astype(PETSc.IntType), scalar_indices.astype(PETSc.IntType))
 
-    def nodal_state(self, node_index, S, time=None):
+    def nodal_state(self, node_index, S, time=None, grid=None):
         """G&W step 1 (eq. 2-4): lumped mass, v_g(t), a_g(t) and Fext_g at
         ``time`` (the end of the step) on owned dofs: one scatter of m, m v
         and m a; gravity is uniform, so its force is m_g g f(time); loads on
-        particles are scattered with the shape functions."""
-        p, grid = self.particles, self.grid
+        particles are scattered with the shape functions. ``grid``: the
+        grid of ``node_index`` (the solve grid's field nodes; default the grid)."""
+        p, grid = self.particles, grid or self.grid
         dim = self.dim
         m = p["mass"]
         moments = particle_to_grid(node_index, S, np.column_stack([m, m[:, None] * p["v"],

@@ -5,7 +5,8 @@ fields), refined in h: Nairn's block pushed along a deformable plane
 two elastic disks colliding head-on along a grid axis (momentum, the time
 they touch, their closest approach, the coefficient of restitution),
 and Sulsky & Kaul's diagonal collision (``inputs/colliding_disks_contact.yaml``).
-Explicit. Prints a table per benchmark and writes the numbers as JSON.
+Explicit, and (frictionless) implicit at 10 to 100 times the explicit
+step. Prints a table per benchmark and writes the numbers as JSON.
 
     python scripts/body_contact_validation.py [--json docs/data/validation_body_contact.json]
 
@@ -37,10 +38,13 @@ def block_acceleration_exact(mu):
     return (PUSH - mu * PRESS) / BLOCK_MASS
 
 
-def block_on_plane_config(h=2.5e-3, law="friction", mu=0.5, shape=None, end_time=None):
+def block_on_plane_config(h=2.5e-3, law="friction", mu=0.5, shape=None, end_time=None, integrator=None, dt=None):
     """``inputs/block_on_plane.yaml`` at cells of ``h`` (m); ``law`` None:
-    no contact pair (one shared field)."""
+    no contact pair (one shared field); ``integrator``, ``dt``: an implicit
+    one at that step instead of the explicit one."""
     overrides = [f"grid.cells=[{int(round(0.140 / h))}, {int(round(0.045 / h))}]"]
+    if integrator:
+        overrides += [f"time.integrator={integrator}", f"time.dt={dt}"]
     if law is None:
         overrides.append("contact=null")
     else:
@@ -73,7 +77,7 @@ def block_on_plane(config, comm=MPI.COMM_WORLD):
     t, v, info = [], [], None
     end = config["time"]["end_time"]
     while sim.time < end * (1 - 1e-12):
-        info = sim.advance(min(sim.stable_time_step(), end - sim.time))
+        info = sim.advance(min(step_size(sim), end - sim.time))
         s = body_sums(sim, block)
         t.append(sim.time)
         v.append(s[1] / s[0])
@@ -86,7 +90,13 @@ def block_on_plane(config, comm=MPI.COMM_WORLD):
             "steps": sim.step_index}
 
 
-def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_time=8.0):
+def step_size(sim):
+    """The explicit CFL step, or the input's dt (implicit)."""
+    return sim.stable_time_step() if sim.integrator.explicit else sim.config["time"]["dt"]
+
+
+def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_time=8.0, integrator="explicit",
+                 dt=None):
     """Two elastic disks (Sulsky & Kaul 3.1.1's, diameter 0.4) colliding
     head-on along x at 2 x ``speed``, their surfaces 0.05 apart at the start
     and on a particle-domain boundary at every resolution (centres at 0.275
@@ -99,7 +109,9 @@ def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_t
                        "geometry": {"type": "ball", "center": [0.275, 0.5], "radius": 0.2}},
                       {"name": "right", "material": "elastic", "particles_per_cell": 2, "velocity": [-speed, 0],
                        "geometry": {"type": "ball", "center": [0.725, 0.5], "radius": 0.2}}],
-           "time": {"integrator": "explicit", "end_time": end_time}}
+           "time": {"integrator": integrator, "end_time": end_time}}
+    if dt:
+        raw["time"]["dt"] = dt
     if law:
         raw["contact"] = [{"bodies": ["left", "right"], "law": law}]
     return validate(raw)
@@ -128,7 +140,7 @@ def disks(config, comm=MPI.COMM_WORLD):
     drift, closest, touch, closing = 0.0, np.inf, None, None
     end = config["time"]["end_time"]
     while sim.time < end * (1 - 1e-12):
-        dt = min(sim.stable_time_step(), end - sim.time)
+        dt = min(step_size(sim), end - sim.time)
         info = sim.advance(dt)
         momentum, ca, cb, va, vb, _ = state()
         drift = max(drift, float(np.max(np.abs(momentum - momentum0))) / reference)
@@ -163,6 +175,19 @@ def main():
             print(f"{h * 1e3:7.2f} {r['law']:>13} {r['acceleration']:11.1f} {exact:9.1f} "
                   f"{r['acceleration'] / exact - 1:+8.2%} {r['start'] * 1e3:11.4f} {r['energy_balance']:7.4f} "
                   f"{r['steps']:6d}")
+    print("\nThe same, frictionless, inside Newton (trapezoidal rule) at about 10 and 100 times the explicit step")
+    explicit_dt = {5e-3: 1.3e-6, 2.5e-3: 6.5e-7}
+    out["block_on_plane_implicit"] = []
+    for h in (5e-3, 2.5e-3):
+        for factor in (10, 100):
+            dt = factor * explicit_dt[h]
+            r = block_on_plane(block_on_plane_config(h, "frictionless", 0.0, integrator="newmark", dt=dt))
+            exact = block_acceleration_exact(0.0)
+            r.update(h=h, dt=dt, factor=factor, exact=exact)
+            out["block_on_plane_implicit"].append(r)
+            print(f"{h * 1e3:7.2f} {f'{factor}x dt':>13} {r['acceleration']:11.1f} {exact:9.1f} "
+                  f"{r['acceleration'] / exact - 1:+8.2%} {r['start'] * 1e3:11.4f} {r['energy_balance']:7.4f} "
+                  f"{r['steps']:6d}")
     print("\nTwo disks colliding head-on (explicit, frictionless pair; touching at t = 2.5)")
     print(f"{'cells':>5} {'shape':>6} {'law':>12} {'touch':>7} {'closest':>8} {'restitution':>11} "
           f"{'energy':>7} {'momentum':>9} {'steps':>6}")
@@ -177,6 +202,14 @@ def main():
                 touch = f"{r['touch']:7.3f}" if r["touch"] is not None else f"{'-':>7}"
                 print(f"{cells:5d} {shape:>6} {r['law']:>12} {touch} {r['closest']:8.5f} {r['restitution']:11.4f} "
                       f"{r['energy_ratio']:7.4f} {r['momentum_drift']:9.1e} {r['steps']:6d}")
+    print("\nThe same inside Newton (trapezoidal rule, linear, frictionless pair)")
+    out["disks_implicit"] = []
+    for cells, dt in ((20, 0.02), (20, 0.1), (20, 0.2), (40, 0.05)):
+        r = disks(disks_config(cells, integrator="newmark", dt=dt))
+        r.update(cells=cells, dt=dt)
+        out["disks_implicit"].append(r)
+        print(f"{cells:5d} dt {dt:4.2f} {r['touch']:7.3f} {r['closest']:8.5f} {r['restitution']:11.4f} "
+              f"{r['energy_ratio']:7.4f} {r['momentum_drift']:9.1e} {r['steps']:6d}")
     print("\nSulsky & Kaul's disks, diagonal (inputs/colliding_disks_contact.yaml, to t = 150)")
     for law in ("frictionless", None):
         overrides = [] if law else ["contact=null"]

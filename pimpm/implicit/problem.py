@@ -422,7 +422,7 @@ def pattern_matrix(grid, pattern, use_coo=False):
     J = PETSc.Mat().create(comm=grid.da.getComm())
     J.setSizes((sizes, sizes), bsize=dim)
     J.setType(PETSc.Mat.Type.AIJ)
-    lgmap = grid.da.getLGMap()
+    lgmap = grid.lgmap() if hasattr(grid, "lgmap") else grid.da.getLGMap()   # block size dim
     J.setLGMap(lgmap, lgmap)
     if use_coo:
         coo.preallocate_local(J, pattern.scalar_rows, pattern.scalar_indices)

@@ -27,7 +27,8 @@ At a node that two fields f and g both reach:
 """
 import numpy as np
 
-from .jit import jit
+from .contact import HALF_SPACE, contact_point
+from .jit import jit, jit_inline
 
 BONDED, FRICTIONLESS, FRICTION = 0, 1, 2
 #: a node's contact state (the largest over its pairs)
@@ -125,6 +126,26 @@ def surface_extents(axes, footprint, node_index, S, x, half, normal, out):
                     out[i, j] = e
 
 
+@jit_inline
+def _separating_axis(normal, extent, partner, i, f, g, axis):
+    """The separating axis of fields f and g at node i: of f's own outward
+    normal, the opposite of g's and their mean, the one along which the
+    surfaces are farthest apart (a flat face's normal, not the rounded
+    corner's of a block sliding on it), into ``axis`` (left as it is
+    without one); returns the gap along it (-1e300: none)."""
+    gap = -1e300
+    if partner[i, f] == g and partner[i, g] == f:
+        for j in range(AXES):
+            # g's candidates are f's, reversed: its own is f's second
+            opposite = 1 if j == 0 else (0 if j == 1 else 2)
+            candidate = -(extent[i, f, j] + extent[i, g, opposite])
+            if candidate > gap:
+                gap = candidate
+                for a in range(normal.shape[3]):
+                    axis[a] = normal[i, f, j, a]
+    return gap
+
+
 @jit
 def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, sums, status):
     """Apply the contact law to the end-of-step velocities ``velocity`` (n,
@@ -158,20 +179,9 @@ def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, s
                     if status[i] < STICK:
                         status[i] = STICK
                     continue
-                # the separating axis: of f's own outward normal, the opposite of
-                # g's and their mean, the one along which the surfaces are
-                # farthest apart (a flat face's normal, not the rounded corner's of
-                # a block sliding on it)
-                gap = -1e300
-                if partner[i, f] == g and partner[i, g] == f:
-                    for j in range(AXES):
-                        # g's candidates are f's, reversed: its own is f's second
-                        opposite = 1 if j == 0 else (0 if j == 1 else 2)
-                        candidate = -(extent[i, f, j] + extent[i, g, opposite])
-                        if candidate > gap:
-                            gap = candidate
-                            for a in range(dim):
-                                nv[a] = normal[i, f, j, a]
+                for a in range(dim):
+                    nv[a] = 0.0
+                gap = _separating_axis(normal, extent, partner, i, f, g, nv)
                 length = 0.0
                 for a in range(dim):
                     length += nv[a] * nv[a]
@@ -212,3 +222,133 @@ def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, s
                 sums[row, 3] += pt * wt_after
                 if status[i] < state:
                     status[i] = state
+
+
+@jit
+def pair_candidates(mass, normal, extent, partner, floor, nodes, fields, normals, gaps):
+    """The implicit step's contact candidates: every (owned node, f < g) that
+    both fields reach, with the pair's separating axis n (from f towards g)
+    and the gap along it at the start of the step, as in
+    :func:`pair_impulses`; fills ``nodes`` (k,), ``fields`` (k, 2),
+    ``normals`` (k, dim), ``gaps`` (k,) (sized for the worst case) and
+    returns k. A pair without a usable axis (a field's normal is zero) gets
+    a zero normal: only a bonded law acts there."""
+    n, n_fields = mass.shape
+    dim = normal.shape[3]
+    k = 0
+    for i in range(n):
+        for f in range(n_fields):
+            if mass[i, f] <= floor:
+                continue
+            for g in range(f + 1, n_fields):
+                if mass[i, g] <= floor:
+                    continue
+                for a in range(dim):
+                    normals[k, a] = 0.0
+                gap = _separating_axis(normal, extent, partner, i, f, g, normals[k])
+                nodes[k] = i
+                fields[k, 0] = f
+                fields[k, 1] = g
+                gaps[k] = gap if gap > -1e299 else 0.0
+                k += 1
+    return k
+
+
+@jit
+def pair_forces(nodes, fields, normals, gaps, law, mu, u, dim, n_fields, area, kn, stick, kt, history, force, D,
+                status, pressure, slip, elastic_slip):
+    """The contact law of each candidate pair at the iterate ``u`` (owned
+    field dofs, flat): with d = u_f - u_g the relative displacement over the
+    step, field f is a point at the signed distance gap - d . n from field
+    g's surface, a half-space (:func:`pimpm.kernels.contact.contact_point`:
+    the same penalty and regularized Coulomb law as the rigid tools, the
+    elastic slip carried in from the last step at the same grid node:
+    ``history`` (k, dim)); a bonded pair is held by the penalty kn in every
+    direction. Fills the force on field f (``force`` (k, dim); field g gets
+    its opposite), D = d force / d d (k, dim, dim), the status, the
+    pressure, the slip beyond the elastic one and the elastic slip (the
+    next step's history)."""
+    params = np.zeros(12)
+    y = np.zeros(3)
+    d = np.zeros(3)
+    carried = np.zeros(3)
+    f = np.zeros(3)
+    Dp = np.zeros((3, 3))
+    traction = np.zeros(3)
+    elastic = np.zeros(3)
+    for k in range(len(nodes)):
+        f_field, g_field = fields[k, 0], fields[k, 1]
+        base_f = (nodes[k] * n_fields + f_field) * dim
+        base_g = (nodes[k] * n_fields + g_field) * dim
+        for a in range(dim):
+            d[a] = u[base_f + a] - u[base_g + a]
+        kind = law[f_field, g_field]
+        length = 0.0
+        for a in range(dim):
+            length += normals[k, a] * normals[k, a]
+        if kind == BONDED or length == 0.0:
+            for a in range(dim):
+                force[k, a] = -area * kn * d[a] if kind == BONDED else 0.0
+                for b in range(dim):
+                    D[k, a, b] = -area * kn if (a == b and kind == BONDED) else 0.0
+            status[k] = STICK if kind == BONDED else OPEN
+            pressure[k] = 0.0
+            slip[k] = 0.0
+            for a in range(dim):
+                elastic_slip[k, a] = 0.0
+            continue
+        for a in range(dim):                 # the half-space of g: through the origin, normal -n
+            params[a] = 0.0
+            params[3 + a] = -normals[k, a]
+            y[a] = -gaps[k] * normals[k, a] + d[a]
+            carried[a] = history[k, a]
+        state, p, plastic = contact_point(HALF_SPACE, params, y, d, carried, area, kn, stick, kt, mu[f_field, g_field],
+                                          kind == FRICTION, dim, f, Dp, traction, elastic)
+        for a in range(dim):
+            elastic_slip[k, a] = elastic[a]
+        for a in range(dim):
+            force[k, a] = f[a]
+            for b in range(dim):
+                D[k, a, b] = Dp[a, b]
+        status[k] = state
+        pressure[k] = p
+        slip[k] = plastic
+
+
+@jit
+def pair_blocks(local_nodes, fields, D, n_fields, node_ijk, dim, width, indptr, slot_position, values):
+    """Add each pair's four blocks (rows and columns f, g of its node:
+    -D, +D / +D, -D, the derivative of the residual -force on f, +force on g)
+    into the step's COO values (scalar CSR layout of
+    :mod:`pimpm.kernels.pattern`); ``local_nodes``: the pairs' ghosted-local
+    grid nodes."""
+    side = 2 * width + 1
+    for k in range(len(local_nodes)):
+        for r in range(2):
+            row = local_nodes[k] * n_fields + fields[k, r]
+            length = indptr[row + 1] - indptr[row]
+            for c in range(2):
+                col = local_nodes[k] * n_fields + fields[k, c]
+                slot = 0
+                for ax in range(dim - 1, -1, -1):
+                    slot = slot * side + node_ijk[col, ax] - node_ijk[row, ax] + width
+                block = slot_position[row, slot] - indptr[row]
+                sign = -1.0 if r == c else 1.0
+                for a in range(dim):
+                    start = dim * dim * indptr[row] + a * length * dim + block * dim
+                    for b in range(dim):
+                        values[start + b] += sign * D[k, a, b]
+
+
+@jit
+def pair_product(local_nodes, fields, D, n_fields, dim, x_local, out_local):
+    """out += the pairs' blocks times ``x_local`` (ghosted-local field nodes, (n, dim))."""
+    for k in range(len(local_nodes)):
+        nf = local_nodes[k] * n_fields + fields[k, 0]
+        ng = local_nodes[k] * n_fields + fields[k, 1]
+        for a in range(dim):
+            s = 0.0
+            for b in range(dim):
+                s += D[k, a, b] * (x_local[nf, b] - x_local[ng, b])
+            out_local[nf, a] -= s
+            out_local[ng, a] += s

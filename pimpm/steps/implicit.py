@@ -19,6 +19,7 @@ from ..kernels import stress as stress_kernels
 from ..kernels import transfer as transfer_kernels
 from ..materials import tensors
 from ..stages import log_stage
+from ..terms.pairs import FieldContact
 from ..transfer import grid_to_particle
 
 
@@ -41,8 +42,11 @@ def advance(sim, dt):
     with log_stage(sim.stages["Migration"]):
         sim.migrate()                                        # step 8
     history = info["residual_history"]
-    return sim.finish_step(dt, t0, forces, {"mass": state.mass, "velocity": v_new,
-                                             "acceleration": a_new, "displacement_increment": u},
+    fields, grid, mass = sim.fields, sim.grid, state.mass        # the grid output: the fields' centre of mass
+    return sim.finish_step(dt, t0, forces, {"mass": fields.total(grid, mass),
+                                             "velocity": fields.centre_of_mass(grid, mass, v_new),
+                                             "acceleration": fields.centre_of_mass(grid, mass, a_new),
+                                             "displacement_increment": fields.centre_of_mass(grid, mass, u)},
                             newton_iterations=info["newton_iterations"],
                             linear_iterations=info["linear_iterations"],
                             backtracks=info["backtracks"],
@@ -54,18 +58,38 @@ def advance(sim, dt):
 
 
 def prepare(sim, dt):
-    """Steps 1-2: P2G and the Newton state on the reset grid."""
-    p, grid = sim.particles, sim.grid
-    node_index, S, G = sim.footprint()
+    """Steps 1-2: P2G and the Newton state on the reset grid. With several
+    velocity fields (pimpm.fields) the unknowns are the field nodes'
+    (``sim.solve_grid``) and the contact pairs' candidates are set up."""
+    p, grid, fields = sim.particles, sim.grid, sim.fields
+    solve_grid = sim.solve_grid
+    grid_index, S, G = sim.footprint()
     sim.begin_terms(dt)
-    extend_weak_nodes(sim, node_index, S, G, dt)
-    mass, velocity, acceleration, fext = sim.nodal_state(node_index, S, sim.time + dt)
+    sim.weak_pairs = 0
+    if fields.single:               # (the weak-node folds are the grid's nodes': one field)
+        extend_weak_nodes(sim, grid_index, S, G, dt)
+    node_index = fields.node_index(grid_index, p["body"])        # the particles' field nodes
+    mass, velocity, acceleration, fext = sim.nodal_state(node_index, S, sim.time + dt, solve_grid)
     # sum_p m_p |h G_ip|^2: zero only where no particle gradient reaches
-    weight = np.empty(grid.n_local_nodes)
+    weight = np.empty(solve_grid.n_local_nodes)
     transfer_kernels.gradient_weight(node_index, G, grid.spacing, p["mass"], weight)
-    stiffness_weight = grid.sum_scalar_to_owned(weight)
-    cons = bc.build_constraints(grid, sim.terms, sim.boundary, mass, dt, sim.mass_floor,
-                                stiffness_weight, sim.time, sim.functions)
+    stiffness_weight = solve_grid.sum_scalar_to_owned(weight)
+    cons = bc.build_constraints(grid, sim.terms, sim.boundary, fields.total(grid, mass), dt, sim.mass_floor,
+                                fields.total(grid, stiffness_weight), sim.time, sim.functions)
+    fixed, fixed_value = cons.fixed, cons.value
+    pairs = None
+    if not fields.single:
+        # a field node no particle of its field reaches is out of the system, like a massless node
+        empty = (mass <= sim.mass_floor) & (stiffness_weight <= sim.mass_floor)
+        fixed = fields.spread(grid, cons.fixed) | empty
+        fixed_value = np.where(empty, 0.0, fields.spread(grid, cons.value))
+        nodes, pair_fields, normals, gaps = fields.candidates(sim, node_index, S, G,
+                                                              np.where(mass > sim.mass_floor, mass, 0.0))
+        for term in sim.terms:
+            if isinstance(term, FieldContact):
+                term.set_candidates(grid, nodes, pair_fields, normals, gaps)
+        local = grid.owned_local_nodes[nodes]
+        pairs = local[:, None] * fields.count + pair_fields
     materials = sim.material_table()
     groups = materials.groups
     history = sim.particle_history()
@@ -76,20 +100,20 @@ def prepare(sim, dt):
         node_index=node_index, S=S, G=G,
         F_n=p["F"], volume_n=p["volume0"] * tensors.det(p["F"]),
         material_groups=groups, materials=materials, history_packed=materials.pack(history),
-        active=active, pattern=sim.tangent_pattern(node_index, active, cells), cells=cells,
+        active=active, pattern=sim.tangent_pattern(node_index, active, cells, pairs), cells=cells,
         mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,
         history=history, radius=sim.kinematics.radius(p["x"]),
         particle_mass=p["mass"], projection_floor=1e4 * sim.mass_floor,
-        fixed=cons.fixed, fixed_value=cons.value,
+        fixed=fixed, fixed_value=fixed_value,
         constraint_scale=constraint_scale(sim.materials, grid, sim.integrator, dt))
     if sim.integrator.needs_previous_force:     # HHT: Fint(t) - Fext(t) on the reset grid
         fext_now = sim.nodal_external_force(node_index, S, mass, sim.time)
-        force = np.empty((grid.n_local_nodes, sim.dim))
+        force = np.empty((solve_grid.n_local_nodes, sim.dim))
         radius = state.radius if state.radius is not None else np.zeros(0)
         stress_kernels.current_internal_force(sim.kinematics.kernel_code, tuple(range(sim.dim)),
                                               tuple(range(S.shape[1])), node_index, S, G, radius,
                                               p["stress"], p["F"], p["volume0"], force)
-        state.previous_force = grid.sum_to_owned(force) - fext_now
+        state.previous_force = solve_grid.sum_to_owned(force) - fext_now
     return state, cons
 
 
@@ -152,8 +176,9 @@ def update_particles(sim, state, cons, u, dt):
     update. Raises StepFailed (particles untouched) if a particle would
     leave the grid or move farther than the Lagrangian limit."""
     grid, p = sim.grid, sim.particles
-    u_local = grid.owned_to_local(u)
-    forces = cons.reactions(sim.problem.unconstrained_residual(u, u_local), sim.comm, sim.dim)
+    u_local = sim.solve_grid.owned_to_local(u)
+    forces = cons.reactions(sim.fields.total(grid, sim.problem.unconstrained_residual(u, u_local)), sim.comm,
+                            sim.dim)
     for term in sim.terms:                 # contact tools: their force on the material
         term.report(forces, sim.comm)
     # converged state (kinematics and stress of the residual just evaluated),
@@ -161,7 +186,7 @@ def update_particles(sim, state, cons, u, dt):
     converged = state.residual_evaluation
     F, sigma = converged.F, converged.sigma
     v_new, a_new = state.grid_kinematics(u)
-    a_local = grid.owned_to_local(a_new)
+    a_local = sim.solve_grid.owned_to_local(a_new)
     u_p = grid_to_particle(state.node_index, state.S, u_local)
     a_p = grid_to_particle(state.node_index, state.S, a_local)
     new_x = p["x"] + u_p

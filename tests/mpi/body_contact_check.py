@@ -1,5 +1,6 @@
 """Deformable bodies in contact on any number of ranks (tests/test_body_contact.py):
-two disks through their impact and Nairn's frictional block, explicit. Saves
+two disks through their impact and Nairn's frictional block, explicit, and
+the disks with the trapezoidal rule (a frictionless pair inside Newton). Saves
 every particle's position and velocity (in id order) and the pairs' forces
 to the .npz file named on the command line (rank 0)."""
 import os
@@ -13,17 +14,18 @@ from mpi4py import MPI  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                                 "scripts"))
-from body_contact_validation import block_on_plane_config, disks_config  # noqa: E402
+from body_contact_validation import block_on_plane_config, disks_config, step_size  # noqa: E402
 from pimpm.simulation import Simulation  # noqa: E402
 
 comm = MPI.COMM_WORLD
 out = {}
 for name, config, end in (("disks", disks_config(20), 3.2),
-                          ("block", block_on_plane_config(5e-3, "friction", 0.5), 0.15e-3)):
+                          ("block", block_on_plane_config(5e-3, "friction", 0.5), 0.15e-3),
+                          ("implicit_disks", disks_config(20, integrator="newmark", dt=0.1), 3.2)):
     sim = Simulation(dict(config, time=dict(config["time"], end_time=end)), comm)
     forces = []
     while sim.time < end * (1 - 1e-12):
-        info = sim.advance(min(sim.stable_time_step(), end - sim.time))
+        info = sim.advance(min(step_size(sim), end - sim.time))
         pair = info["contact"][sim.fields.names[0]]
         # (not the count of nodes in contact: a node whose approach is round-off may flip)
         forces.append([pair["normal_force"], pair["tangential_force"]])

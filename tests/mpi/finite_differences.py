@@ -60,3 +60,33 @@ def jacobian_error(problem, J, X, R, free_local, comm, h):
     B = J_fd[np.ix_(free_local, free_global)]
     err = comm.allreduce(float(np.max(np.abs(A - B))) if A.size else 0.0, op=MPI.MAX)
     return err, scale, J_local
+
+
+def shell_errors(grid, problem, terms, solver_config, state, X, R, J, comm, seed=3):
+    """The matrix-free product and diagonal (pimpm.implicit.shell) at ``X``
+    against the assembled ``J``: (the largest relative difference of three
+    random products, the relative difference of the diagonals). Collective."""
+    from pimpm.implicit import StepProblem
+    from pimpm.solver import NewtonSolver
+    shell_problem = StepProblem(grid, problem.residual_scale, terms=terms)
+    shell_solver = NewtonSolver(grid, shell_problem, dict(solver_config, preset="matrix-free"))
+    shell_problem.begin(state)
+    problem.form_residual(None, X, R)            # the terms' state at the iterate again
+    shell_problem.form_jacobian(None, X, shell_solver.J, shell_solver.J)
+    rng = np.random.default_rng(seed + comm.rank)
+    product = 0.0
+    for _ in range(3):
+        v = X.duplicate()
+        v.getArray()[:] = rng.standard_normal(v.getLocalSize())
+        y_assembled, y_shell = X.duplicate(), X.duplicate()
+        J.mult(v, y_assembled)
+        shell_solver.J.mult(v, y_shell)
+        y_shell.axpy(-1.0, y_assembled)
+        product = max(product, y_shell.norm() / y_assembled.norm())
+    d, d_shell = X.duplicate(), X.duplicate()
+    J.getDiagonal(d)
+    shell_solver.J.getDiagonal(d_shell)
+    d_shell.axpy(-1.0, d)
+    diagonal = d_shell.norm() / d.norm()
+    shell_solver.destroy()
+    return product, diagonal
