@@ -143,8 +143,8 @@ class BodyFields:
         axes_n = kernels.AXES
         normal_local = self.to_local(grid, self._normal.reshape(-1), axes_n * dim).reshape(n_local, axes_n, dim)
         extent = np.empty((n_local, axes_n))
-        kernels.surface_extents(axes, footprint, node_index, S, p["x"], sim.particle_half_sizes(),
-                                normal_local, extent)
+        kernels.surface_extents(axes, footprint, node_index, S, p["x"], p["F"], p["half_size"], normal_local,
+                                extent)
         self._extent = grid.max_columns_to_owned(extent.reshape(grid.n_local_nodes, axes_n * count)).reshape(
             grid.n_owned_nodes, count, axes_n)
         self._floor = sim.mass_floor

@@ -1,16 +1,19 @@
 """The benchmarks of docs/VALIDATION.md "Bodies that collide, slide and
 separate" (issue 30: one grid velocity field per body, contact between the
 fields), refined in h: Nairn's block pushed along a deformable plane
-(``inputs/block_on_plane.yaml``, acceleration against the exact one) and
+(``inputs/block_on_plane.yaml``, acceleration against the exact one),
 two elastic disks colliding head-on along a grid axis (momentum, the time
 they touch, their closest approach, the coefficient of restitution),
-and Sulsky & Kaul's diagonal collision (``inputs/colliding_disks_contact.yaml``).
+Sulsky & Kaul's diagonal collision (``inputs/colliding_disks_contact.yaml``),
+three stacked blocks pushed sideways (``inputs/stacked_blocks.yaml``: the
+interface Coulomb's law picks slips) and a disk on a 45 degree slope
+(``inputs/disk_on_slope.yaml``: rolling and sliding accelerations).
 Explicit, and (frictionless) implicit at 10 to 100 times the explicit
 step. Prints a table per benchmark and writes the numbers as JSON.
 
     python scripts/body_contact_validation.py [--json docs/data/validation_body_contact.json]
 
-Serial (tests/test_body_contact.py checks 2 ranks); about a minute.
+Serial (tests/test_body_contact.py checks 2 ranks); about eight minutes.
 tests/test_body_contact.py runs the same functions."""
 import argparse
 import json
@@ -157,6 +160,81 @@ def disks(config, comm=MPI.COMM_WORLD):
             "apart": second - first, "steps": sim.step_index}
 
 
+def stacked_blocks_config(h=0.01, mus=(0.5, 0.1, 0.8), end_time=None):
+    """``inputs/stacked_blocks.yaml`` at cells of ``h`` with the coefficients
+    ``mus`` of the floor-a, a-b and b-c interfaces."""
+    pairs = ", ".join(f"{{bodies: [{lower}, {upper}], law: friction, friction_coefficient: {mu}}}"
+                      for (lower, upper), mu in zip((("floor", "a"), ("a", "b"), ("b", "c")), mus))
+    overrides = [f"grid.cells=[{int(round(0.5 / h))}, {int(round(0.3 / h))}]", f"contact=[{pairs}]"]
+    if end_time:
+        overrides.append(f"time.end_time={end_time}")
+    return load_config(os.path.join(INPUTS, "stacked_blocks.yaml"), overrides)
+
+
+def stacked_blocks_expected(mus, push=0.5):
+    """Coulomb's answer for the stack: the interface that slips (1: floor-a,
+    2: a-b, 3: b-c; the weakest, which carries k = 4 - i blocks and holds mu
+    k m g), and the acceleration of the blocks above it over g."""
+    capacity = [mu * (3 - i) for i, mu in enumerate(mus)]
+    weakest = int(np.argmin(capacity))
+    return weakest + 1, (push - capacity[weakest]) / (3 - weakest)
+
+
+def stacked_blocks(config, comm=MPI.COMM_WORLD):
+    """Run the stack: each body's displacement along x at the end and its
+    acceleration over g fitted after the push is applied (t >= 80 ms)."""
+    sim = Simulation(config, comm)
+    t, x = [], []
+    end = config["time"]["end_time"]
+    while sim.time < end * (1 - 1e-12):
+        sim.advance(min(step_size(sim), end - sim.time))
+        sums = [body_sums(sim, b) for b in range(4)]
+        t.append(sim.time)
+        x.append([s[3] / s[0] for s in sums])
+    t, x = np.array(t), np.array(x)
+    late = t >= 0.08
+    g = -config["time"]["gravity"][1]
+    return {"displacement": (x[-1] - x[0]).tolist(),
+            "acceleration": [float(2 * np.polyfit(t[late], x[late, b], 2)[0] / g) for b in range(4)],
+            "steps": sim.step_index}
+
+
+def disk_on_slope_config(h=0.01, mu=0.5, shape=None, end_time=None):
+    """``inputs/disk_on_slope.yaml`` at cells of ``h`` with friction ``mu``."""
+    overrides = [f"grid.cells=[{int(round(1.0 / h))}, {int(round(0.35 / h))}]",
+                 f"contact=[{{bodies: [disk, plate], law: friction, friction_coefficient: {mu}}}]"]
+    if end_time:
+        overrides.append(f"time.end_time={end_time}")
+    if shape:
+        overrides.append(f"grid.shape_functions={shape}")
+    return load_config(os.path.join(INPUTS, "disk_on_slope.yaml"), overrides)
+
+
+def disk_on_slope_expected(mu, theta=np.pi / 4, g=9.81):
+    """Rolling without slip, (2/3) g sin(theta), while mu >= tan(theta) / 3;
+    sliding at g (sin(theta) - mu cos(theta)) otherwise."""
+    if mu >= np.tan(theta) / 3:
+        return 2.0 / 3.0 * g * np.sin(theta)
+    return g * (np.sin(theta) - mu * np.cos(theta))
+
+
+def disk_on_slope(config, comm=MPI.COMM_WORLD):
+    """The disk's centre acceleration along the slope, fitted after the
+    gravity ramp (t >= 50 ms)."""
+    sim = Simulation(config, comm)
+    disk = sim.body_names.index("disk")
+    t, x = [], []
+    end = config["time"]["end_time"]
+    while sim.time < end * (1 - 1e-12):
+        sim.advance(min(step_size(sim), end - sim.time))
+        s = body_sums(sim, disk)
+        t.append(sim.time)
+        x.append(s[3] / s[0])
+    t, x = np.array(t), np.array(x)
+    late = t >= 0.05
+    return {"acceleration": float(2 * np.polyfit(t[late], x[late], 2)[0]), "steps": sim.step_index}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", help="write the numbers here")
@@ -218,6 +296,31 @@ def main():
         out["disks_diagonal"].append(r)
         print(f"{r['law']:>12}: closest {r['closest']:.4f}, restitution {r['restitution']:.4f}, energy after/before "
               f"{r['energy_ratio']:.4f}, momentum drift {r['momentum_drift']:.1e}, {r['steps']} steps")
+    print("\nStacked blocks pushed sideways by half the top block's weight (explicit): which interface slips")
+    print(f"{'h (m)':>6} {'mu floor-a, a-b, b-c':>22} {'slips (Coulomb)':>16} {'displacements a, b, c (mm)':>30} "
+          f"{'a/g moving':>10} {'Coulomb':>8}")
+    out["stacked_blocks"] = []
+    for h in (0.02, 0.01, 0.005):
+        for mus in ((0.5, 0.1, 0.8), (0.05, 0.6, 0.8), (0.5, 0.6, 0.2)):
+            r = stacked_blocks(stacked_blocks_config(h, mus))
+            layer, expected = stacked_blocks_expected(mus)
+            moving = np.mean(r["acceleration"][layer:])
+            r.update(h=h, mus=list(mus), layer=layer, expected=expected, moving=float(moving))
+            out["stacked_blocks"].append(r)
+            names = ("floor-a", "a-b", "b-c")
+            print(f"{h:6.3f} {str(mus):>22} {names[layer - 1]:>16} "
+                  f"{' '.join(f'{1e3 * d:9.2f}' for d in r['displacement'][1:]):>30} {moving:10.4f} {expected:8.4f}")
+    print("\nA disk on a 45 degree slope (explicit): centre acceleration")
+    out["disk_on_slope"] = []
+    for h in (0.02, 0.01):
+        for mu in (0.5, 0.1):
+            r = disk_on_slope(disk_on_slope_config(h, mu))
+            exact = disk_on_slope_expected(mu)
+            r.update(h=h, mu=mu, exact=float(exact))
+            out["disk_on_slope"].append(r)
+            print(f"h {h:6.3f} mu {mu:4.2f}: {r['acceleration']:.4f} m/s^2 against "
+                  f"{'rolling' if mu >= 1 / 3 else 'sliding'} {exact:.4f} ({r['acceleration'] / exact - 1:+.2%}), "
+                  f"{r['steps']} steps")
     print(f"\n{time.perf_counter() - start:.0f} s")
     if args.json:
         with open(args.json, "w") as f:

@@ -24,7 +24,8 @@ from pimpm.simulation import Simulation  # noqa: E402
 
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 from body_contact_validation import (block_acceleration_exact, block_on_plane, block_on_plane_config,  # noqa: E402
-                                     disks, disks_config)
+                                     disk_on_slope, disk_on_slope_config, disk_on_slope_expected, disks,
+                                     disks_config, stacked_blocks, stacked_blocks_config, stacked_blocks_expected)
 
 
 def pair_input(**changes):
@@ -231,3 +232,25 @@ def test_the_pair_contact_tangent_matches_finite_differences(ranks, args):
     the matrix-free product."""
     proc = run_mpi(ranks, [os.path.join(HERE, "mpi", "pair_jacobian_check.py")] + args)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+
+
+def test_the_weakest_interface_of_a_stack_slips():
+    """inputs/stacked_blocks.yaml: pushed with half the top block's weight,
+    a-b holds 0.2 m g, floor-a 1.5 and b-c 0.8: b and c move together at
+    0.15 g, a and the floor stay."""
+    mus = (0.5, 0.1, 0.8)
+    r = stacked_blocks(stacked_blocks_config(0.01, mus, end_time=0.15), MPI.COMM_SELF)
+    layer, expected = stacked_blocks_expected(mus)
+    assert layer == 2
+    _, a, b, c = r["displacement"]
+    assert abs(a) < 1e-3 and b > 0.008 and abs(c - b) < 0.05 * b       # a-b slips, b-c sticks
+    assert abs(np.mean(r["acceleration"][2:]) / expected - 1) < 0.03, r
+
+
+@pytest.mark.parametrize("mu", [0.1])
+def test_a_disk_slides_down_a_deformable_slope(mu):
+    """inputs/disk_on_slope.yaml at 0.02 m cells: with mu = 0.1 < tan(45)/3
+    the disk slides at g (sin 45 - mu cos 45) to 1%. (Rolling, mu = 0.5, needs
+    the input's 0.01 m cells: -0.6%, scripts/body_contact_validation.py.)"""
+    r = disk_on_slope(disk_on_slope_config(0.02, mu, end_time=0.15), MPI.COMM_SELF)
+    assert abs(r["acceleration"] / disk_on_slope_expected(mu) - 1) < 0.01, r

@@ -137,8 +137,8 @@ def test_the_continued_run_equals_the_uninterrupted_one_bit_for_bit(stopped_and_
 @pytest.mark.parametrize("ranks", [1, 3])
 def test_a_restart_on_other_ranks_agrees_to_1e8(stopped_and_continued, ranks, tmp_path):
     name, whole, _, _, stop_step, stopped_dir, raw = stopped_and_continued
-    if name == "Newmark billet" and ranks == 3:
-        pytest.skip("covered by 1 rank; keeps the suite short")
+    if (name == "Newmark billet" and ranks == 3) or (name == "explicit contact pair" and ranks == 1):
+        pytest.skip("covered by the other rank count; keeps the suite short")
     work = tmp_path / "again"
     work.mkdir()
     write_yaml(work / "input.yaml", raw)

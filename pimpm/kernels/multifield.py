@@ -13,7 +13,8 @@ At a node that two fields f and g both reach:
   (:func:`outward_normals`);
 - the gap is the distance between the two bodies' surfaces near the node
   along a normal: each field's farthest particle-domain point along it over
-  the particles that reach the node (:func:`surface_extents`), so contact
+  the particles that reach the node (the domains convected by F:
+  :func:`surface_extents`), so contact
   engages where the particles' domains meet, not a cell early. Of the two
   fields' normals the one with the larger gap is the contact normal n (the
   separating axis: a flat face's normal, not that of a corner sliding on
@@ -103,13 +104,15 @@ def outward_normals(mass, gradient, floor, out, partner):
 
 
 @jit
-def surface_extents(axes, footprint, node_index, S, x, half, normal, out):
-    """out[i, j] = the largest x_p . n + sum_a |n_a| l_pa over the particles
-    with a weight at field node i, for its field's candidate normals n =
-    normal[i, j] (:func:`outward_normals`; l_p the particle domain's half
-    sizes): how far along n the body's surface reaches near the node.
-    ``out`` holds -1e300 where no particle reaches or the normal is zero
-    (set here)."""
+def surface_extents(axes, footprint, node_index, S, x, F, half, normal, out):
+    """out[i, j] = the largest x_p . n + sum_d |n . F_p e_d| l_pd over the
+    particles with a weight at field node i, for its field's candidate
+    normals n = normal[i, j] (:func:`outward_normals`; l_p the particle
+    domain's initial half sizes): the farthest point along n of the
+    particle's domain convected by F (a parallelogram or parallelepiped: a
+    rolling body's domains turn with it), so how far along n the body's
+    surface reaches near the node. ``out`` holds -1e300 where no particle
+    reaches or the normal is zero (set here)."""
     out[:] = -1e300
     for p in range(node_index.shape[0]):
         for k in footprint:
@@ -120,8 +123,13 @@ def surface_extents(axes, footprint, node_index, S, x, half, normal, out):
                 e = 0.0
                 length = 0.0
                 for a in axes:
-                    e += x[p, a] * normal[i, j, a] + abs(normal[i, j, a]) * half[p, a]
+                    e += x[p, a] * normal[i, j, a]
                     length += normal[i, j, a] * normal[i, j, a]
+                for d in axes:
+                    column = 0.0
+                    for a in axes:
+                        column += normal[i, j, a] * F[p, a, d]
+                    e += abs(column) * half[p, d]
                 if length > 0.0 and e > out[i, j]:
                     out[i, j] = e
 
