@@ -115,14 +115,19 @@ class BodyFields:
         """The sum over fields of an owned per-field-dof array: per grid dof."""
         if self.single:
             return field_values
-        return np.reshape(field_values, (grid.n_owned_nodes, self.count, grid.dim)).sum(axis=1).reshape(-1)
+        per_field = np.reshape(field_values, (grid.n_owned_nodes, self.count, grid.dim))
+        out = per_field[:, 0].copy()
+        for f in range(1, self.count):          # a few fields: 3x numpy's sum over the middle axis
+            out += per_field[:, f]
+        return out.reshape(-1)
 
-    def centre_of_mass(self, grid, mass, values):
+    def centre_of_mass(self, grid, mass, values, total_mass=None):
         """The mass-weighted mean over fields of per-field-dof ``values``
-        (velocities), per grid dof; ``mass`` per field dof."""
+        (velocities), per grid dof; ``mass`` per field dof (``total_mass``:
+        its :meth:`total`, if known)."""
         if self.single:
             return values
-        m = self.total(grid, mass)
+        m = self.total(grid, mass) if total_mass is None else total_mass
         return np.where(m > 0.0, self.total(grid, mass * values) / np.where(m > 0.0, m, 1.0), 0.0)
 
     def find_contacts(self, sim, node_index, S, G, nodal_mass):

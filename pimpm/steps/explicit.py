@@ -229,9 +229,10 @@ def advance(sim, dt):
         sim.rigid["x"] = new_rigid_x
     with log_stage(sim.stages["Migration"]):
         sim.migrate(disorder=SORT_DISORDER, lazy=True)
-    return sim.finish_step(dt, t0, forces, {"mass": fields.total(grid, mass),
-                                            "velocity": fields.centre_of_mass(grid, mass, v_new),
-                                            "acceleration": fields.centre_of_mass(grid, mass, acceleration),
+    total = fields.total(grid, mass)
+    return sim.finish_step(dt, t0, forces, {"mass": total,
+                                            "velocity": fields.centre_of_mass(grid, mass, v_new, total),
+                                            "acceleration": fields.centre_of_mass(grid, mass, acceleration, total),
                                             "displacement_increment": fields.centre_of_mass(grid, mass,
-                                                                                            v_new * dt)},
+                                                                                            v_new * dt, total)},
                            explicit=True)
