@@ -52,6 +52,10 @@ def summary(sim, config):
                            + ("raise particles_per_element)" if g["type"] == "mesh" else
                               "use a denser cloud)"))
         lines.append(f"  body      {b['name']}: {int(n)} particles ({kind}{source})")
+    for pair in config.get("contact", []):
+        mu = f", mu = {pair['friction_coefficient']:g}" if pair["law"] == "friction" else ""
+        lines.append(f"  contact   {pair['bodies'][0]} - {pair['bodies'][1]}: {pair['law']}{mu} "
+                     f"({sim.fields.count} grid velocity fields)")
     dt_explicit = explicit_time_step(sim)
     if t["dt"] is None:
         lines.append(f"  time      explicit, automatic dt = {t['cfl']:g} x CFL step "

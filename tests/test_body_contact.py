@@ -254,3 +254,9 @@ def test_a_disk_slides_down_a_deformable_slope(mu):
     the input's 0.01 m cells: -0.6%, scripts/body_contact_validation.py.)"""
     r = disk_on_slope(disk_on_slope_config(0.02, mu, end_time=0.15), MPI.COMM_SELF)
     assert abs(r["acceleration"] / disk_on_slope_expected(mu) - 1) < 0.01, r
+
+
+def test_check_lists_the_contact_pairs():
+    proc = run_pimpm(None, [os.path.join(ROOT, "inputs", "stacked_blocks.yaml"), "--check"])
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "contact   a - b: friction, mu = 0.1 (4 grid velocity fields)" in proc.stdout
