@@ -260,3 +260,23 @@ def test_check_lists_the_contact_pairs():
     proc = run_pimpm(None, [os.path.join(ROOT, "inputs", "stacked_blocks.yaml"), "--check"])
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     assert "contact   a - b: friction, mu = 0.1 (4 grid velocity fields)" in proc.stdout
+
+
+def test_balls_collide_and_separate_in_3d():
+    """Two elastic balls head-on with Coulomb friction (a velocity field
+    each), explicit, 3D: momentum kept, contact near the touch, they separate."""
+    raw = {"grid": {"lower": [0, 0, 0], "upper": [1, 1, 0.5], "cells": [16, 16, 8]},
+           "materials": {"e": {"model": "neo_hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3,
+                               "density": 1000.0}},
+           "bodies": [{"name": "left", "material": "e", "velocity": [0.01, 0, 0],
+                       "geometry": {"type": "ball", "center": [0.275, 0.5, 0.25], "radius": 0.2}},
+                      {"name": "right", "material": "e", "velocity": [-0.01, 0, 0],
+                       "geometry": {"type": "ball", "center": [0.725, 0.5, 0.25], "radius": 0.2}}],
+           "contact": [{"bodies": ["left", "right"], "law": "friction", "friction_coefficient": 0.2}],
+           "time": {"integrator": "explicit", "end_time": 6.0}}
+    r = disks(validate(raw), MPI.COMM_SELF)
+    h = 1.0 / 16
+    assert r["momentum_drift"] < 1e-10
+    # the seeded domains stop 0.0125 short of the spheres here: touch at 2.5 + 0.0125 / 0.02
+    assert abs(r["touch"] - (2.5 + 0.0125 / 0.02)) < 0.2
+    assert r["apart"] > 0.5 * h and r["restitution"] > 0.75 and r["closest"] > 0.4 - 0.0125 * 2 - 0.2 * h
