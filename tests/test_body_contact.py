@@ -280,3 +280,25 @@ def test_balls_collide_and_separate_in_3d():
     # the seeded domains stop 0.0125 short of the spheres here: touch at 2.5 + 0.0125 / 0.02
     assert abs(r["touch"] - (2.5 + 0.0125 / 0.02)) < 0.2
     assert r["apart"] > 0.5 * h and r["restitution"] > 0.75 and r["closest"] > 0.4 - 0.0125 * 2 - 0.2 * h
+
+
+def test_a_quasi_static_frictionless_pair_carries_the_platen_force_normally():
+    """A block pressed onto a plane by a bonded platen (quasi-static, a
+    frictionless pair, a roller on the symmetry axis): Newton converges, the
+    pair's normal force is the platen's to 1% and its tangential force zero."""
+    raw = {"grid": {"lower": [0, 0], "upper": [1.0, 1.0], "cells": [10, 10],
+                    "boundary": {"ymin": "fixed", "xmin": "roller"}},
+           "materials": {"m": {"model": "neo_hookean", "youngs_modulus": 1e6, "poisson_ratio": 0.3, "density": 1e3}},
+           "bodies": [{"name": "plane", "material": "m", "geometry": {"type": "box", "lower": [0, 0], "upper": [1, 0.4]}},
+                      {"name": "block", "material": "m", "geometry": {"type": "box", "lower": [0, 0.4], "upper": [0.4, 0.7]}},
+                      {"name": "platen", "rigid": True, "velocity": [0, -0.01], "constrain": ["y"],
+                       "geometry": {"type": "box", "lower": [0, 0.7], "upper": [0.5, 0.8]}}],
+           "contact": [{"bodies": ["block", "plane"], "law": "frictionless"}],
+           "time": {"integrator": "quasi_static", "dt": 1.0, "end_time": 3.0}}
+    sim = Simulation(validate(raw), MPI.COMM_SELF)
+    for _ in range(3):
+        info = sim.advance(1.0)
+    pair = info["contact"]["block-plane"]
+    assert abs(pair["normal_force"] / -info["forces"]["platen"][1] - 1) < 0.01, pair
+    assert pair["tangential_force"] < 1e-9 * pair["normal_force"]
+    sim.solver.destroy()

@@ -96,9 +96,10 @@ class FieldContact(NodalTerm):
         local = self._local
         count = self.fields.count
         rows = self.pair_fields[:, 0] * count + self.pair_fields[:, 1]
-        n = local["force"]
-        normal = np.abs(np.einsum("ka,ka->k", n, self.normals))
-        tangential = np.linalg.norm(n - normal[:, None] * self.normals, axis=1) if len(n) else np.zeros(0)
+        force = local["force"]
+        along = np.einsum("ka,ka->k", force, self.normals)
+        normal = np.abs(along)
+        tangential = np.linalg.norm(force - along[:, None] * self.normals, axis=1) if len(force) else np.zeros(0)
         touching = local["status"] != kernels.OPEN
         mu = self.fields.mu[self.pair_fields[:, 0], self.pair_fields[:, 1]]
         sums = np.zeros((count * count, 4))
