@@ -20,6 +20,20 @@ LAWS = {"bonded": kernels.BONDED, "frictionless": kernels.FRICTIONLESS, "frictio
 PAIR_COLUMNS = ("normal_force", "tangential_force", "contact_area", "contact_points")
 
 
+def sum_fields_to_owned(grid, count, local_values):
+    """Field-node values (n_local_nodes * count, k) of ``grid`` summed over
+    ranks: (n_owned_nodes * count, k), one exchange for every field. Collective."""
+    k = local_values.shape[1]
+    return grid.sum_columns_to_owned(np.reshape(local_values, (grid.n_local_nodes, count * k))).reshape(-1, k)
+
+
+def fields_to_local(grid, count, owned_values, k):
+    """Ghosted-local field-node values (n_local_nodes * count, k) of owned
+    ones (flat, n_owned_nodes * count * k). Collective."""
+    local = grid.owned_columns_to_local(np.reshape(owned_values, (grid.n_owned_nodes, count * k)))
+    return local.reshape(-1, k)
+
+
 class BodyFields:
     """The fields of a run (``config``: the validated input). ``count`` = 1
     when there are no contact pairs: everything is as with one field."""
@@ -46,7 +60,6 @@ class BodyFields:
             self.pairs.append(("-".join(pair["bodies"]), f, g))
         self.dissipation = 0.0          # frictional dissipation so far (summed over ranks)
         self.last = {name: dict.fromkeys(PAIR_COLUMNS, 0.0) for name, _, _ in self.pairs}
-        self.status = None              # owned nodes' contact state at the last step
         self._slip = None               # implicit: each owned node's pairs' elastic slip (n, F * F, dim)
 
     def slip_history(self, grid, nodes, fields):
@@ -92,16 +105,14 @@ class BodyFields:
         k = local_values.shape[1]
         if self.single and k == grid.dim:
             return grid.sum_to_owned(local_values).reshape(-1, k)
-        owned = grid.sum_columns_to_owned(local_values.reshape(grid.n_local_nodes, self.count * k))
-        return owned.reshape(-1, k)
+        return sum_fields_to_owned(grid, self.count, local_values)
 
     def to_local(self, grid, owned_values, k):
         """Ghosted-local field-node values (n_local_nodes * count, k) of
         owned ones (flat, n_owned_nodes * count * k). Collective."""
         if self.single and k == grid.dim:
             return grid.owned_to_local(owned_values)
-        local = grid.owned_columns_to_local(np.reshape(owned_values, (grid.n_owned_nodes, self.count * k)))
-        return local.reshape(-1, k)
+        return fields_to_local(grid, self.count, owned_values, k)
 
     def spread(self, grid, dof_values):
         """An owned per-dof array of the grid (n_owned_nodes * dim) repeated
@@ -129,6 +140,15 @@ class BodyFields:
             return values
         m = self.total(grid, mass) if total_mass is None else total_mass
         return np.where(m > 0.0, self.total(grid, mass * values) / np.where(m > 0.0, m, 1.0), 0.0)
+
+    def grid_output(self, grid, mass, velocity, acceleration, increment):
+        """The step's grid fields for the output, per grid dof (owned): the
+        fields' total mass and their centre-of-mass velocity, acceleration and
+        displacement increment (``mass`` and the others per field dof)."""
+        total = self.total(grid, mass)
+        return {"mass": total, "velocity": self.centre_of_mass(grid, mass, velocity, total),
+                "acceleration": self.centre_of_mass(grid, mass, acceleration, total),
+                "displacement_increment": self.centre_of_mass(grid, mass, increment, total)}
 
     def find_contacts(self, sim, node_index, S, G, nodal_mass):
         """Where the fields meet this step: their outward normals and how far
@@ -175,11 +195,9 @@ class BodyFields:
         grid, count = sim.grid, self.count
         v = velocity.reshape(grid.n_owned_nodes, count, sim.dim).copy()
         sums = np.zeros((count * count, kernels.PAIR_SUMS))
-        status = np.empty(grid.n_owned_nodes, dtype=np.int64)
         kernels.pair_impulses(self._mass, v, self._normal, self._extent, self._partner, self.law, self.mu, dt,
-                              self._floor, sums, status)
+                              self._floor, sums)
         if report:
-            self.status = status
             sums = sim.comm.allreduce(sums)
             area = float(np.prod(grid.spacing)) / float(np.min(grid.spacing))   # a node's share of a face
             for name, f, g in self.pairs:
@@ -191,8 +209,8 @@ class BodyFields:
 
 
 class FieldGrid:
-    """The grid as the implicit step sees it with several velocity fields
-    (:class:`BodyFields` with count F > 1): a grid whose nodes are the field
+    """The grid as a step sees it with several velocity fields (the implicit
+    step's unknowns; :class:`BodyFields` with count F > 1): a grid whose nodes are the field
     nodes, i * F + f, F dim unknowns per grid node on a DMDA of F dim dofs
     (the grid's layout). Field nodes are placed on a virtual grid that is F
     times finer along x (x' = F x + f), so that the tangent's pattern and
@@ -214,12 +232,12 @@ class FieldGrid:
         self.ghost_shape = grid.ghost_shape.copy()
         self.ghost_shape[0] *= count
         self.owned_local_nodes = (grid.owned_local_nodes[:, None] * count + np.arange(count)).reshape(-1)
-        self._scratch = None
+        self._lgmap = None
 
     def lgmap(self):
         """The local-to-global map of the field nodes' dofs in blocks of dim
         (the DMDA's has blocks of F dim, one per grid node)."""
-        if getattr(self, "_lgmap", None) is None:
+        if self._lgmap is None:
             indices = self.da.getLGMap().getIndices()
             self._lgmap = PETSc.LGMap().create(indices[::self.dim] // self.dim, bsize=self.dim,
                                                comm=self.da.getComm())
@@ -230,17 +248,14 @@ class FieldGrid:
 
     def sum_to_owned(self, local_values):
         """Field-node values (n_local_nodes, dim) summed over ranks: owned dofs (flat). Collective."""
-        k = self.count * self.dim
-        return self.grid.sum_columns_to_owned(np.reshape(local_values, (self.grid.n_local_nodes, k))).reshape(-1)
+        return sum_fields_to_owned(self.grid, self.count, np.reshape(local_values, (-1, self.dim))).reshape(-1)
 
     def sum_scalar_to_owned(self, local_values):
         return self.sum_to_owned(np.repeat(np.asarray(local_values)[:, None], self.dim, axis=1))
 
     def owned_to_local(self, owned_values):
         """Ghosted-local copy (n_local_nodes, dim) of owned dofs. Collective."""
-        k = self.count * self.dim
-        local = self.grid.owned_columns_to_local(np.reshape(owned_values, (self.grid.n_owned_nodes, k)))
-        return local.reshape(self.n_local_nodes, self.dim)
+        return fields_to_local(self.grid, self.count, owned_values, self.dim)
 
     def vec_to_local(self, vec):
         return self.owned_to_local(vec.getArray(readonly=True))

@@ -80,9 +80,8 @@ class Simulation:
         #: the deformable bodies' grid velocity fields and their contact pairs (pimpm.fields)
         self.fields = BodyFields(config)
         if not self.fields.single and not self.integrator.explicit:     # the pairs' law inside Newton
-            g = config["grid"]
-            h = float(np.min((np.asarray(g["upper"]) - np.asarray(g["lower"])) / np.asarray(g["cells"])))
-            self.terms.append(FieldContact(self.fields, dim, max(m.p_wave_modulus for m in self.materials), h))
+            self.terms.append(FieldContact(self.fields, dim, max(m.p_wave_modulus for m in self.materials),
+                                           float(np.min(self.grid.spacing))))
         self.loads = make_loads(config, self.functions, self.body_names)
         self.body_material = {i: self.material_names.index(b["material"])
                               for i, b in enumerate(config["bodies"]) if not b.get("rigid", False)}
@@ -267,8 +266,8 @@ class Simulation:
 
     @property
     def solve_grid(self):
-        """The grid whose nodes carry the implicit step's unknowns: the grid,
-        or with several velocity fields their field nodes (pimpm.fields.FieldGrid)."""
+        """The grid whose nodes carry a step's nodal values: the grid, or with
+        several velocity fields their field nodes (pimpm.fields.FieldGrid)."""
         if self.fields.single:
             return self.grid
         if getattr(self, "_field_grid", None) is None or self._field_grid.grid is not self.grid:
@@ -408,27 +407,23 @@ class Simulation:
         mass = grid.sum_scalar_to_owned(moments[:, 0])
         momentum = grid.sum_to_owned(moments[:, 1:1 + dim])
         mass_acc = grid.sum_to_owned(moments[:, 1 + dim:])
-        fext = self.nodal_external_force(node_index, S, mass, self.time if time is None else time)
+        fext = self.nodal_external_force(node_index, S, mass, self.time if time is None else time, grid)
         has_mass = mass > self.mass_floor
         safe = np.where(has_mass, mass, 1.0)
         velocity = np.where(has_mass, momentum / safe, 0.0)
         acceleration = np.where(has_mass, mass_acc / safe, 0.0)
         return mass, velocity, acceleration, fext
 
-    def nodal_external_force(self, node_index, S, mass, time):
+    def nodal_external_force(self, node_index, S, mass, time, grid=None):
         """Fext_g at ``time`` on owned dofs: gravity (m_g g f(time)) and the
-        loads on particles. With several velocity fields (pimpm.fields),
-        ``node_index`` and ``mass`` may be the fields' (field nodes, per
-        field dof). Collective."""
+        loads on particles. ``grid``: the grid of ``node_index`` and ``mass``
+        (the solve grid's field nodes with several velocity fields, pimpm.fields;
+        default the grid). Collective."""
+        grid = grid or self.grid
         fext = mass * np.tile(self.gravity * self.gravity_function(time), len(mass) // self.dim)
         forces = particle_forces(self.loads, self.particles, time, self.dim)
         if forces is not None:
-            if len(mass) == self.dim * self.grid.n_owned_nodes:     # one field (or grid nodes)
-                fext = fext + self.grid.sum_to_owned(particle_to_grid(node_index, S, forces,
-                                                                      self.grid.n_local_nodes))
-            else:
-                fext = fext + self.fields.sum_to_owned(self.grid, particle_to_grid(
-                    node_index, S, forces, self.fields.local_nodes(self.grid))).reshape(-1)
+            fext = fext + grid.sum_to_owned(particle_to_grid(node_index, S, forces, grid.n_local_nodes))
         return fext
 
     def particle_external_force(self, time):

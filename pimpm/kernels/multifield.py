@@ -32,7 +32,7 @@ from .contact import HALF_SPACE, contact_point
 from .jit import jit, jit_inline
 
 BONDED, FRICTIONLESS, FRICTION = 0, 1, 2
-#: a node's contact state (the largest over its pairs)
+#: a pair's contact state (:func:`pair_forces`)
 OPEN, STICK, SLIP = 0, 1, 2
 #: candidate contact normals per field and node (:func:`outward_normals`)
 AXES = 3
@@ -155,19 +155,17 @@ def _separating_axis(normal, extent, partner, i, f, g, axis):
 
 
 @jit
-def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, sums, status):
+def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, sums):
     """Apply the contact law to the end-of-step velocities ``velocity`` (n,
     F, dim; in place) at every owned node two fields reach (``mass`` (n,
     F), ``normal``, ``partner``: :func:`outward_normals`, ``extent`` the
     surfaces' reach along the normals, ``law`` and ``mu`` (F, F) each pair's law and
     coefficient). Adds each pair's normal and tangential impulse, contact
-    nodes and frictional dissipation into ``sums`` (F * F, PAIR_SUMS) and
-    sets ``status`` (n,). The impulses are equal and opposite: momentum is
-    kept exactly."""
+    nodes and frictional dissipation into ``sums`` (F * F, PAIR_SUMS). The
+    impulses are equal and opposite: momentum is kept exactly."""
     n, n_fields, dim = velocity.shape
     w = np.empty(dim)
     nv = np.empty(dim)
-    status[:] = OPEN
     for i in range(n):
         for f in range(n_fields):
             mf = mass[i, f]
@@ -184,8 +182,6 @@ def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, s
                         dv = velocity[i, f, a] - velocity[i, g, a]
                         velocity[i, f, a] -= reduced * dv / mf
                         velocity[i, g, a] += reduced * dv / mg
-                    if status[i] < STICK:
-                        status[i] = STICK
                     continue
                 for a in range(dim):
                     nv[a] = 0.0
@@ -209,14 +205,8 @@ def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, s
                     wt2 += w[a] * w[a]
                 wt = np.sqrt(wt2)
                 pt = 0.0                                 # the tangential impulse's size, against w_t
-                state = STICK
                 if law[f, g] == FRICTION and wt > 0.0:
-                    pt = reduced * wt                    # what stops the sliding
-                    if pt > mu[f, g] * pn:
-                        pt = mu[f, g] * pn
-                        state = SLIP
-                elif law[f, g] == FRICTIONLESS:
-                    state = SLIP
+                    pt = min(reduced * wt, mu[f, g] * pn)    # what stops the sliding, at most mu pn
                 for a in range(dim):
                     impulse = pn * nv[a] + (pt * w[a] / wt if wt > 0.0 else 0.0)
                     velocity[i, f, a] -= impulse / mf
@@ -228,8 +218,6 @@ def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, s
                 sums[row, 1] += pt
                 sums[row, 2] += 1.0
                 sums[row, 3] += pt * wt_after
-                if status[i] < state:
-                    status[i] = state
 
 
 @jit

@@ -78,9 +78,7 @@ class ParticleStress:
         force = np.empty((self.n_nodes, sim.dim))
         current_internal_force(sim.kinematics.kernel_code, self.axes, self.footprint, self.node_index,
                                self.S, self.G, self.radius, p["stress"], p["F"], p["volume0"], force)
-        if sim.fields.single:
-            return sim.grid.sum_to_owned(force)
-        return sim.fields.sum_to_owned(sim.grid, force).reshape(-1)
+        return sim.solve_grid.sum_to_owned(force)
 
     def evaluate(self, v_local, dt):
         """Deform the particles with the ghosted-local grid velocity
@@ -159,7 +157,7 @@ def advance(sim, dt):
         has_mass = mass > sim.mass_floor
         safe_mass = np.where(has_mass, mass, 1.0)
         velocity = np.where(has_mass, nodal[:, 1:1 + dim].reshape(-1) / safe_mass, 0.0)
-        fext = sim.nodal_external_force(node_index, S, mass, sim.time)      # eq. 4
+        fext = sim.nodal_external_force(node_index, S, mass, sim.time, sim.solve_grid)      # eq. 4
         sim.begin_terms(dt)
         footprint = ExplicitFootprint(grid_index, S, G)
         for term in sim.terms:                # contact tools: their corners on this footprint
@@ -194,10 +192,11 @@ def advance(sim, dt):
             v_new = np.where(fixed, fixed_velocity, np.where(has_mass, v_new, 0.0))
             acceleration = np.where(has_mass, (v_new - velocity) / dt, 0.0)
         acceleration = np.where(fixed, 0.0, acceleration)
+        output = fields.grid_output(grid, mass, v_new, acceleration, v_new * dt)
         # the force the bodies apply
         forces = cons.reactions(fields.total(grid, mass * (v_new - velocity) / dt - fext + fint), comm, dim)
         for term in sim.terms:                 # contact tools: where the step took them, their force
-            term.settle(grid.owned_to_local(fields.centre_of_mass(grid, mass, v_new) * dt))
+            term.settle(grid.owned_to_local(output["displacement_increment"]))
             term.report(forces, comm, explicit=True)
         v_local = fields.to_local(grid, v_new, dim)
         new_v, new_x, momentum = stress.grid_to_particle(fields.to_local(grid, (v_new - velocity) / dt, dim),
@@ -229,10 +228,4 @@ def advance(sim, dt):
         sim.rigid["x"] = new_rigid_x
     with log_stage(sim.stages["Migration"]):
         sim.migrate(disorder=SORT_DISORDER, lazy=True)
-    total = fields.total(grid, mass)
-    return sim.finish_step(dt, t0, forces, {"mass": total,
-                                            "velocity": fields.centre_of_mass(grid, mass, v_new, total),
-                                            "acceleration": fields.centre_of_mass(grid, mass, acceleration, total),
-                                            "displacement_increment": fields.centre_of_mass(grid, mass,
-                                                                                            v_new * dt, total)},
-                           explicit=True)
+    return sim.finish_step(dt, t0, forces, output, explicit=True)

@@ -42,11 +42,7 @@ def advance(sim, dt):
     with log_stage(sim.stages["Migration"]):
         sim.migrate()                                        # step 8
     history = info["residual_history"]
-    fields, grid, mass = sim.fields, sim.grid, state.mass        # the grid output: the fields' centre of mass
-    return sim.finish_step(dt, t0, forces, {"mass": fields.total(grid, mass),
-                                             "velocity": fields.centre_of_mass(grid, mass, v_new),
-                                             "acceleration": fields.centre_of_mass(grid, mass, a_new),
-                                             "displacement_increment": fields.centre_of_mass(grid, mass, u)},
+    return sim.finish_step(dt, t0, forces, sim.fields.grid_output(sim.grid, state.mass, v_new, a_new, u),
                             newton_iterations=info["newton_iterations"],
                             linear_iterations=info["linear_iterations"],
                             backtracks=info["backtracks"],
@@ -107,7 +103,7 @@ def prepare(sim, dt):
         fixed=fixed, fixed_value=fixed_value,
         constraint_scale=constraint_scale(sim.materials, grid, sim.integrator, dt))
     if sim.integrator.needs_previous_force:     # HHT: Fint(t) - Fext(t) on the reset grid
-        fext_now = sim.nodal_external_force(node_index, S, mass, sim.time)
+        fext_now = sim.nodal_external_force(node_index, S, mass, sim.time, solve_grid)
         force = np.empty((solve_grid.n_local_nodes, sim.dim))
         radius = state.radius if state.radius is not None else np.zeros(0)
         stress_kernels.current_internal_force(sim.kinematics.kernel_code, tuple(range(sim.dim)),
