@@ -60,27 +60,82 @@ class BodyFields:
             self.pairs.append(("-".join(pair["bodies"]), f, g))
         self.dissipation = 0.0          # frictional dissipation so far (summed over ranks)
         self.last = {name: dict.fromkeys(PAIR_COLUMNS, 0.0) for name, _, _ in self.pairs}
-        self._slip = None               # implicit: each owned node's pairs' elastic slip (n, F * F, dim)
+        self._density = None
+        self._pending = None            # a checkpoint's candidates, until the grid is known
+        #: implicit: each owned node's pairs' elastic slip, status and penetration (n, F * F, dim + 2)
+        self._carried = None
 
-    def slip_history(self, grid, nodes, fields):
-        """The elastic slip each candidate pair (owned ``nodes`` of ``grid``,
-        ``fields`` (k, 2)) carried in from the last step at its node (zero
-        where there was none): the implicit law's stick (pimpm.terms.pairs)."""
-        if self._slip is None or len(self._slip) != grid.n_owned_nodes:
-            self._slip = np.zeros((grid.n_owned_nodes, self.count * self.count, grid.dim))
-        return self._slip[nodes, fields[:, 0] * self.count + fields[:, 1]].copy()
+    def carried(self, grid, nodes, fields):
+        """What each candidate pair (owned ``nodes`` of ``grid``, ``fields``
+        (k, 2)) carries in from the end of the last step at its node: its
+        elastic slip (k, dim), its status (kernels.STICK, SLIP or OPEN) and
+        its penetration: the implicit law's stick, hold and gap (pimpm.terms.pairs)."""
+        dim, pairs = grid.dim, self.count * self.count
+        if self._carried is None or len(self._carried) != grid.n_owned_nodes:
+            self._carried = np.zeros((grid.n_owned_nodes, pairs, dim + 2))
+        if self._pending is not None:           # a checkpoint's (:meth:`restore`)
+            node, pair, values = self._pending
+            owned = np.full(int(np.prod(grid.nodes)), -1, dtype=np.int64)
+            owned[grid.natural_node_index()] = np.arange(grid.n_owned_nodes)
+            mine = owned[node] >= 0
+            self._carried[owned[node[mine]], pair[mine]] = values[mine]
+            self._pending = None
+        values = self._carried[nodes, fields[:, 0] * self.count + fields[:, 1]]
+        return values[:, :dim].copy(), np.rint(values[:, dim]).astype(np.int64), values[:, dim + 1].copy()
 
-    def keep_slip(self, nodes, fields, elastic):
-        """The converged step's elastic slips, at their nodes (the others' are forgotten)."""
-        self._slip[:] = 0.0
-        self._slip[nodes, fields[:, 0] * self.count + fields[:, 1]] = elastic
+    def pair_masses(self, nodes, fields):
+        """The two fields' masses of each candidate pair (k, 2) (:meth:`find_contacts`' step)."""
+        return np.stack([self._mass[nodes, fields[:, 0]], self._mass[nodes, fields[:, 1]]], axis=1)
 
-    def state(self):
-        """What a checkpoint keeps (the pairs' law is stateless: only the account)."""
-        return {"dissipation": self.dissipation}
+    def keep(self, nodes, fields, elastic, status, penetration):
+        """The converged step's candidate pairs: their elastic slips, status
+        and penetrations, at their nodes (every other pair's are forgotten)."""
+        self._carried[:] = 0.0
+        self._carried[nodes, fields[:, 0] * self.count + fields[:, 1]] = np.column_stack(
+            [elastic, status, penetration])
+
+    def state(self, grid):
+        """What a checkpoint keeps: the frictional dissipation so far and, in
+        implicit runs, each candidate pair at the end of the step: its grid
+        node (natural numbering, so a restart on other ranks finds it), the
+        pair (f * count + g) and what :meth:`carried` returns (the next
+        step's stick, hold and gap; pairs with nothing to carry are left
+        out). The same on every rank. Collective."""
+        out = {"dissipation": self.dissipation}
+        if self._carried is not None:
+            node, pair = np.nonzero(np.any(self._carried != 0.0, axis=2))
+            index = np.column_stack([grid.natural_node_index()[node], pair])
+            width = self._carried.shape[2]
+            index = np.concatenate([np.asarray(r, dtype=np.int64).reshape(-1, 2)
+                                    for r in grid.comm.allgather(index)])
+            values = np.concatenate([np.asarray(v, dtype=float).reshape(-1, width)
+                                     for v in grid.comm.allgather(self._carried[node, pair])])
+            order = np.lexsort((index[:, 1], index[:, 0]))
+            out["candidates"] = {"node": index[order, 0].tolist(), "pair": index[order, 1].tolist(),
+                                 "carried": values[order].tolist()}
+        return out
 
     def restore(self, state):
+        """A checkpoint's :meth:`state`; raises ValueError if it is not one."""
         self.dissipation = float(state.get("dissipation", 0.0))
+        candidates = state.get("candidates")
+        if candidates is not None:
+            node = np.asarray(candidates["node"], dtype=np.int64)
+            pair = np.asarray(candidates["pair"], dtype=np.int64)
+            values = np.asarray(candidates["carried"], dtype=float)
+            k = len(node)
+            if len(pair) != k or values.shape[:1] != (k,) or (k and values.ndim != 2) \
+                    or np.any(pair < 0) or np.any(pair >= self.count ** 2) or not np.all(np.isfinite(values)):
+                raise ValueError("the contact pairs' candidates")
+            self._pending = (node, pair, values.reshape(k, -1))
+
+    def transfer(self, old, new):
+        """The carried state from grid ``old`` onto ``new``, the same grid
+        partitioned differently (:meth:`pimpm.simulation.Simulation.balance_ranks`). Collective."""
+        if self._carried is None:
+            return
+        shape = self._carried.shape[1:]
+        self._carried = old.transfer_owned(self._carried.reshape(-1), new).reshape((new.n_owned_nodes,) + shape)
 
     @property
     def single(self):
@@ -173,6 +228,13 @@ class BodyFields:
         self._extent = grid.max_columns_to_owned(extent.reshape(grid.n_local_nodes, axes_n * count)).reshape(
             grid.n_owned_nodes, count, axes_n)
         self._floor = sim.mass_floor
+        if self._density is None:               # each field's reference density (mass over volume)
+            field = self.of_body[p["body"]]
+            sums = np.zeros((2, count))
+            np.add.at(sums[0], field, p["mass"])
+            np.add.at(sums[1], field, p["volume0"])
+            sums = sim.comm.allreduce(sums)
+            self._density = np.where(sums[1] > 0.0, sums[0] / np.where(sums[1] > 0.0, sums[1], 1.0), 1.0)
 
     def candidates(self, sim, node_index, S, G, nodal_mass):
         """The implicit step's contact candidates at the owned nodes (after
@@ -182,10 +244,10 @@ class BodyFields:
         n, count, dim = sim.grid.n_owned_nodes, self.count, sim.dim
         worst = n * count * (count - 1) // 2
         nodes, fields = np.empty(worst, dtype=np.int64), np.empty((worst, 2), dtype=np.int64)
-        normals, gaps = np.empty((worst, dim)), np.empty(worst)
-        k = kernels.pair_candidates(self._mass, self._normal, self._extent, self._partner, self._floor,
-                                    nodes, fields, normals, gaps)
-        return nodes[:k].copy(), fields[:k].copy(), normals[:k].copy(), gaps[:k].copy()
+        normals, gaps, shares = np.empty((worst, dim)), np.empty(worst), np.empty(worst)
+        k = kernels.pair_candidates(self._mass, self._density, self._normal, self._extent, self._partner,
+                                    self._floor, nodes, fields, normals, gaps, shares)
+        return nodes[:k].copy(), fields[:k].copy(), normals[:k].copy(), gaps[:k].copy(), shares[:k].copy()
 
     def contact(self, sim, velocity, dt, report=False):
         """The pairs' law applied to field velocities ``velocity`` (owned,
@@ -263,9 +325,12 @@ class FieldGrid:
     def coordinates(self):
         """Every owned dof's node coordinate (a Vec of the field DMDA): the
         rigid-body modes of each field."""
-        vec = self.da.createGlobalVec()
         x = self.grid.node_coordinates_owned()
-        vec.getArray()[:] = np.repeat(x[:, None, :], self.count, axis=1).reshape(-1)
+        values = np.repeat(x[:, None, :], self.count, axis=1).reshape(-1)
+        # a Vec of its own: the DMDA's would share its local-to-global map, whose
+        # block size (F dim) the near-null space's setBlockSize(dim) would change
+        vec = PETSc.Vec().createMPI((len(values), PETSc.DETERMINE), bsize=self.dim, comm=self.da.getComm())
+        vec.getArray()[:] = values
         return vec
 
     def box_preallocation(self, width):

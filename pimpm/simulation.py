@@ -244,7 +244,10 @@ class Simulation:
                     raise SetupError(f"the checkpoint's work account ({key} of {name!r}: {vector}): expected "
                                      f"{self.dim} numbers, in an intact checkpoint")
         self.work.restore(checkpoint.work)
-        self.fields.restore(checkpoint.fields)
+        try:
+            self.fields.restore(checkpoint.fields)
+        except (KeyError, ValueError, TypeError) as err:
+            raise SetupError(f"the checkpoint's contact pairs ({err}): expected an intact checkpoint") from None
         for term in self.terms:
             if term.name in checkpoint.terms:
                 try:
@@ -539,6 +542,7 @@ class Simulation:
         self.grid = new
         if self.last_grid is not None:      # the last step's grid fields, for output
             self.last_grid = {k: old.transfer_owned(v, new) for k, v in self.last_grid.items()}
+        self.fields.transfer(old, new)
         old.destroy()
         self.migrate()
 

@@ -8,12 +8,13 @@ Sulsky & Kaul's diagonal collision (``inputs/colliding_disks_contact.yaml``),
 three stacked blocks pushed sideways (``inputs/stacked_blocks.yaml``: the
 interface Coulomb's law picks slips) and a disk on a 45 degree slope
 (``inputs/disk_on_slope.yaml``: rolling and sliding accelerations).
-Explicit, and (frictionless) implicit at 10 to 100 times the explicit
-step. Prints a table per benchmark and writes the numbers as JSON.
+Explicit, and implicit (the pairs inside Newton, with Newton's
+iterations per step) at 5 to 1000 times the explicit step. Prints a table
+per benchmark and writes the numbers as JSON.
 
     python scripts/body_contact_validation.py [--json docs/data/validation_body_contact.json]
 
-Serial (tests/test_body_contact.py checks 2 ranks); about eight minutes.
+Serial (tests/test_body_contact.py checks 2 ranks); about ten minutes.
 tests/test_body_contact.py runs the same functions."""
 import argparse
 import json
@@ -28,7 +29,9 @@ petsc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
 from pimpm.config import load_config, validate  # noqa: E402
+from pimpm.errors import StepFailed  # noqa: E402
 from pimpm.simulation import Simulation  # noqa: E402
+from pimpm.step_control import TimeStepControl  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 INPUTS = os.path.join(os.path.dirname(HERE), "inputs")
@@ -47,7 +50,7 @@ def block_on_plane_config(h=2.5e-3, law="friction", mu=0.5, shape=None, end_time
     one at that step instead of the explicit one."""
     overrides = [f"grid.cells=[{int(round(0.140 / h))}, {int(round(0.045 / h))}]"]
     if integrator:
-        overrides += [f"time.integrator={integrator}", f"time.dt={dt}"]
+        overrides += [f"time.integrator={integrator}", f"time.dt={dt}"] + (["time.alpha=-0.3"] if integrator == "hht" else [])
     if law is None:
         overrides.append("contact=null")
     else:
@@ -77,10 +80,9 @@ def block_on_plane(config, comm=MPI.COMM_WORLD):
     external work) and the steps."""
     sim = Simulation(config, comm)
     block = sim.body_names.index("block")
-    t, v, info = [], [], None
-    end = config["time"]["end_time"]
-    while sim.time < end * (1 - 1e-12):
-        info = sim.advance(min(step_size(sim), end - sim.time))
+    t, v, infos = [], [], []
+    for info, _ in march(sim, config["time"]["end_time"]):
+        infos.append(info)
         s = body_sums(sim, block)
         t.append(sim.time)
         v.append(s[1] / s[0])
@@ -90,12 +92,43 @@ def block_on_plane(config, comm=MPI.COMM_WORLD):
     dissipation = info.get("frictional_dissipation", 0.0)
     balance = (info["kinetic_energy"] + info["strain_energy"] + dissipation) / info["external_work"]
     return {"acceleration": float(a), "start": float(-b / a), "energy_balance": float(balance),
-            "steps": sim.step_index}
+            "steps": sim.step_index, **newton_counts(infos)}
 
 
 def step_size(sim):
     """The explicit CFL step, or the input's dt (implicit)."""
     return sim.stable_time_step() if sim.integrator.explicit else sim.config["time"]["dt"]
+
+
+def march(sim, end):
+    """Advance ``sim`` to ``end``, yielding each step's info and its size:
+    explicit at the CFL step; implicit at the input's dt with the run's
+    step control (a step Newton does not finish is cut in half and
+    retried, as ``python -m pimpm`` does: pimpm.step_control)."""
+    if sim.integrator.explicit:
+        while sim.time < end * (1 - 1e-12):
+            dt = min(step_size(sim), end - sim.time)
+            yield sim.advance(dt), dt
+        return
+    control = TimeStepControl(dict(sim.config["time"], end_time=end))
+    while not control.done(sim.time):
+        dt = control.next_dt(sim.time)
+        try:
+            info = sim.advance(dt)
+        except StepFailed:
+            if control.failed():
+                continue
+            raise
+        info["step_cuts"] = control.succeeded(info["newton_iterations"])
+        yield info, dt
+
+
+def newton_counts(infos):
+    """Newton iterations per step (mean, largest) and step cuts of an implicit run's step infos
+    (a step in free flight takes none); nothing for an explicit run."""
+    counts = [i["newton_iterations"] for i in infos]
+    return {"newton_mean": float(np.mean(counts)), "newton_max": int(max(counts)),
+            "cuts": int(sum(i.get("step_cuts", 0) for i in infos))} if any(counts) else {}
 
 
 def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_time=8.0, integrator="explicit",
@@ -140,11 +173,9 @@ def disks(config, comm=MPI.COMM_WORLD):
     momentum0, ca, cb, va0, vb0, reference = state()
     line = (cb - ca) / np.linalg.norm(cb - ca)
     energy0 = sim.kinetic_energy() + sim.strain_energy()
-    drift, closest, touch, closing = 0.0, np.inf, None, None
-    end = config["time"]["end_time"]
-    while sim.time < end * (1 - 1e-12):
-        dt = min(step_size(sim), end - sim.time)
-        info = sim.advance(dt)
+    drift, closest, touch, closing, infos = 0.0, np.inf, None, None, []
+    for info, dt in march(sim, config["time"]["end_time"]):
+        infos.append(info)
         momentum, ca, cb, va, vb, _ = state()
         drift = max(drift, float(np.max(np.abs(momentum - momentum0))) / reference)
         closest = min(closest, float(np.linalg.norm(cb - ca)))
@@ -157,15 +188,18 @@ def disks(config, comm=MPI.COMM_WORLD):
     return {"momentum_drift": drift, "touch": touch, "closing_per_step": closing, "closest": closest,
             "restitution": float(-((va - vb) @ line) / ((va0 - vb0) @ line)),
             "energy_ratio": float((info["kinetic_energy"] + info["strain_energy"]) / energy0),
-            "apart": second - first, "steps": sim.step_index}
+            "apart": second - first, "steps": sim.step_index, **newton_counts(infos)}
 
 
-def stacked_blocks_config(h=0.01, mus=(0.5, 0.1, 0.8), end_time=None):
+def stacked_blocks_config(h=0.01, mus=(0.5, 0.1, 0.8), end_time=None, integrator=None, dt=None):
     """``inputs/stacked_blocks.yaml`` at cells of ``h`` with the coefficients
-    ``mus`` of the floor-a, a-b and b-c interfaces."""
+    ``mus`` of the floor-a, a-b and b-c interfaces; ``integrator``, ``dt``:
+    an implicit one at that step instead of the explicit one."""
     pairs = ", ".join(f"{{bodies: [{lower}, {upper}], law: friction, friction_coefficient: {mu}}}"
                       for (lower, upper), mu in zip((("floor", "a"), ("a", "b"), ("b", "c")), mus))
     overrides = [f"grid.cells=[{int(round(0.5 / h))}, {int(round(0.3 / h))}]", f"contact=[{pairs}]"]
+    if integrator:
+        overrides += [f"time.integrator={integrator}", f"time.dt={dt}"] + (["time.alpha=-0.3"] if integrator == "hht" else [])
     if end_time:
         overrides.append(f"time.end_time={end_time}")
     return load_config(os.path.join(INPUTS, "stacked_blocks.yaml"), overrides)
@@ -184,10 +218,9 @@ def stacked_blocks(config, comm=MPI.COMM_WORLD):
     """Run the stack: each body's displacement along x at the end and its
     acceleration over g fitted after the push is applied (t >= 80 ms)."""
     sim = Simulation(config, comm)
-    t, x = [], []
-    end = config["time"]["end_time"]
-    while sim.time < end * (1 - 1e-12):
-        sim.advance(min(step_size(sim), end - sim.time))
+    t, x, infos = [], [], []
+    for info, _ in march(sim, config["time"]["end_time"]):
+        infos.append(info)
         sums = [body_sums(sim, b) for b in range(4)]
         t.append(sim.time)
         x.append([s[3] / s[0] for s in sums])
@@ -196,13 +229,17 @@ def stacked_blocks(config, comm=MPI.COMM_WORLD):
     g = -config["time"]["gravity"][1]
     return {"displacement": (x[-1] - x[0]).tolist(),
             "acceleration": [float(2 * np.polyfit(t[late], x[late, b], 2)[0] / g) for b in range(4)],
-            "steps": sim.step_index}
+            "steps": sim.step_index, **newton_counts(infos)}
 
 
-def disk_on_slope_config(h=0.01, mu=0.5, shape=None, end_time=None):
-    """``inputs/disk_on_slope.yaml`` at cells of ``h`` with friction ``mu``."""
-    overrides = [f"grid.cells=[{int(round(1.0 / h))}, {int(round(0.35 / h))}]",
+def disk_on_slope_config(h=0.01, mu=0.5, shape=None, end_time=None, integrator=None, dt=None):
+    """``inputs/disk_on_slope.yaml`` at cells of ``h`` with friction ``mu``
+    (``integrator``, ``dt``: an implicit one at that step)."""
+    rows = int(np.ceil(0.35 / h - 1e-9))          # square cells: the grid's top at or above the input's
+    overrides = [f"grid.cells=[{int(round(1.0 / h))}, {rows}]", f"grid.upper=[1.0, {rows * h:.12g}]",
                  f"contact=[{{bodies: [disk, plate], law: friction, friction_coefficient: {mu}}}]"]
+    if integrator:
+        overrides += [f"time.integrator={integrator}", f"time.dt={dt}"] + (["time.alpha=-0.3"] if integrator == "hht" else [])
     if end_time:
         overrides.append(f"time.end_time={end_time}")
     if shape:
@@ -223,16 +260,16 @@ def disk_on_slope(config, comm=MPI.COMM_WORLD):
     gravity ramp (t >= 50 ms)."""
     sim = Simulation(config, comm)
     disk = sim.body_names.index("disk")
-    t, x = [], []
-    end = config["time"]["end_time"]
-    while sim.time < end * (1 - 1e-12):
-        sim.advance(min(step_size(sim), end - sim.time))
+    t, x, infos = [], [], []
+    for info, _ in march(sim, config["time"]["end_time"]):
+        infos.append(info)
         s = body_sums(sim, disk)
         t.append(sim.time)
         x.append(s[3] / s[0])
     t, x = np.array(t), np.array(x)
     late = t >= 0.05
-    return {"acceleration": float(2 * np.polyfit(t[late], x[late], 2)[0]), "steps": sim.step_index}
+    return {"acceleration": float(2 * np.polyfit(t[late], x[late], 2)[0]), "steps": sim.step_index,
+            **newton_counts(infos)}
 
 
 def main():
@@ -253,19 +290,26 @@ def main():
             print(f"{h * 1e3:7.2f} {r['law']:>13} {r['acceleration']:11.1f} {exact:9.1f} "
                   f"{r['acceleration'] / exact - 1:+8.2%} {r['start'] * 1e3:11.4f} {r['energy_balance']:7.4f} "
                   f"{r['steps']:6d}")
-    print("\nThe same, frictionless, inside Newton (trapezoidal rule) at about 10 and 100 times the explicit step")
+    print("\nThe same inside Newton (trapezoidal rule) at 10, 100 and 1000 times the explicit step (1000x: "
+          "friction only, to 5.2 ms: four steps at 5 mm); Newton iterations per step")
+    print(f"{'h (mm)':>7} {'law':>13} {'dt':>9} {'a (m/s^2)':>11} {'exact':>9} {'error':>8} {'energy':>7} "
+          f"{'steps':>6} {'newton':>7} {'max':>4} {'cuts':>5}")
     explicit_dt = {5e-3: 1.3e-6, 2.5e-3: 6.5e-7}
     out["block_on_plane_implicit"] = []
     for h in (5e-3, 2.5e-3):
-        for factor in (10, 100):
-            dt = factor * explicit_dt[h]
-            r = block_on_plane(block_on_plane_config(h, "frictionless", 0.0, integrator="newmark", dt=dt))
-            exact = block_acceleration_exact(0.0)
-            r.update(h=h, dt=dt, factor=factor, exact=exact)
-            out["block_on_plane_implicit"].append(r)
-            print(f"{h * 1e3:7.2f} {f'{factor}x dt':>13} {r['acceleration']:11.1f} {exact:9.1f} "
-                  f"{r['acceleration'] / exact - 1:+8.2%} {r['start'] * 1e3:11.4f} {r['energy_balance']:7.4f} "
-                  f"{r['steps']:6d}")
+        for factor in (10, 100, 1000):
+            for law, mu in (("friction", 0.5), ("frictionless", 0.0)):
+                if factor == 1000 and law == "frictionless":
+                    continue                    # twice as fast, it would leave the plane by 5.2 ms
+                dt = factor * explicit_dt[h]
+                r = block_on_plane(block_on_plane_config(h, law, mu, integrator="newmark", dt=dt,
+                                                         end_time=5.2e-3 if factor == 1000 else None))
+                exact = block_acceleration_exact(mu)
+                r.update(h=h, law=law, mu=mu, dt=dt, factor=factor, exact=exact)
+                out["block_on_plane_implicit"].append(r)
+                print(f"{h * 1e3:7.2f} {law:>13} {f'{factor}x':>9} {r['acceleration']:11.1f} {exact:9.1f} "
+                      f"{r['acceleration'] / exact - 1:+8.2%} {r['energy_balance']:7.4f} {r['steps']:6d} "
+                      f"{r['newton_mean']:7.2f} {r['newton_max']:4d} {r['cuts']:5d}")
     print("\nTwo disks colliding head-on (explicit, frictionless pair; touching at t = 2.5)")
     print(f"{'cells':>5} {'shape':>6} {'law':>12} {'touch':>7} {'closest':>8} {'restitution':>11} "
           f"{'energy':>7} {'momentum':>9} {'steps':>6}")
@@ -287,7 +331,8 @@ def main():
         r.update(cells=cells, dt=dt)
         out["disks_implicit"].append(r)
         print(f"{cells:5d} dt {dt:4.2f} {r['touch']:7.3f} {r['closest']:8.5f} {r['restitution']:11.4f} "
-              f"{r['energy_ratio']:7.4f} {r['momentum_drift']:9.1e} {r['steps']:6d}")
+              f"{r['energy_ratio']:7.4f} {r['momentum_drift']:9.1e} {r['steps']:6d} newton {r['newton_mean']:.2f} "
+              f"(max {r['newton_max']}, cuts {r['cuts']})")
     print("\nSulsky & Kaul's disks, diagonal (inputs/colliding_disks_contact.yaml, to t = 150)")
     for law in ("frictionless", None):
         overrides = [] if law else ["contact=null"]
@@ -321,6 +366,32 @@ def main():
             print(f"h {h:6.3f} mu {mu:4.2f}: {r['acceleration']:.4f} m/s^2 against "
                   f"{'rolling' if mu >= 1 / 3 else 'sliding'} {exact:.4f} ({r['acceleration'] / exact - 1:+.2%}), "
                   f"{r['steps']} steps")
+    print("\nInside Newton (trapezoidal rule), mu = 0.5, 0.1, 0.8: the stack at 0.01 m cells and 5, 10 and 30 "
+          "times the explicit step (1.4e-4 s); the disk on the slope at 10 and 100 times (8.6e-5 s at 0.02 m, "
+          "4.3e-5 s at 0.01 m)")
+    out["stacked_blocks_implicit"], out["disk_on_slope_implicit"] = [], []
+    mus = (0.5, 0.1, 0.8)
+    layer, expected = stacked_blocks_expected(mus)
+    for factor in (5, 10, 30):
+        dt = factor * 1.4e-4
+        r = stacked_blocks(stacked_blocks_config(0.01, mus, integrator="newmark", dt=dt))
+        moving = np.mean(r["acceleration"][layer:])
+        r.update(h=0.01, mus=list(mus), dt=dt, factor=factor, layer=layer, expected=expected, moving=float(moving))
+        out["stacked_blocks_implicit"].append(r)
+        print(f"stack {factor:4d}x: displacements a, b, c (mm) "
+              f"{' '.join(f'{1e3 * d:7.2f}' for d in r['displacement'][1:])}, b and c at {moving:.4f} g "
+              f"(Coulomb {expected:.4f}), newton {r['newton_mean']:.2f} (max {r['newton_max']}, cuts {r['cuts']})")
+    for h, explicit in ((0.02, 8.6e-5), (0.01, 4.3e-5)):
+        for factor in (10, 100):
+            for mu in (0.5, 0.1):
+                dt = factor * explicit
+                r = disk_on_slope(disk_on_slope_config(h, mu, integrator="newmark", dt=dt))
+                exact = disk_on_slope_expected(mu)
+                r.update(h=h, mu=mu, dt=dt, factor=factor, exact=float(exact))
+                out["disk_on_slope_implicit"].append(r)
+                print(f"slope h {h:5.3f} {factor:4d}x mu {mu:4.2f}: {r['acceleration']:.4f} m/s^2 against "
+                      f"{'rolling' if mu >= 1 / 3 else 'sliding'} {exact:.4f} ({r['acceleration'] / exact - 1:+.2%}), "
+                      f"{r['steps']} steps, newton {r['newton_mean']:.2f} (max {r['newton_max']}, cuts {r['cuts']})")
     print(f"\n{time.perf_counter() - start:.0f} s")
     if args.json:
         with open(args.json, "w") as f:

@@ -55,11 +55,10 @@ def _validate_contact_pairs(value, path, bodies):
 
 
 def check_contact_pairs(config):
-    """What the multi-field contact of this version runs with: frictionless
-    and bonded pairs in the implicit integrators (the velocity formulation),
-    friction in the explicit one; no F-bar; rigid bodies that are bonded (a
-    frictionless or frictional tool meets each field through its own law:
-    not yet)."""
+    """What the multi-field contact of this version runs with: every law in
+    every integrator (the implicit ones in the velocity formulation); no
+    F-bar; rigid bodies that are bonded (a frictionless or frictional tool
+    meets each field through its own law: not yet)."""
     if not config["contact"]:
         return
     if config["time"]["integrator"] != "explicit" and config["time"]["formulation"] != "velocity":
@@ -67,13 +66,6 @@ def check_contact_pairs(config):
                           f"contact pairs (time.formulation = {config['time']['formulation']!r}: the pairs' "
                           "contact couples two fields' unknowns, which the momentum formulation's "
                           "matrix does not hold)", path="contact")
-    if config["time"]["integrator"] != "explicit":
-        for i, pair in enumerate(config["contact"]):
-            if pair["law"] == "friction":
-                raise ConfigError(f"contact[{i}].law = 'friction': expected frictionless or bonded with "
-                                  f"time.integrator: {config['time']['integrator']} (frictional pairs run with "
-                                  "time.integrator: explicit in this version: Newton does not yet settle "
-                                  "their stick and slip)", path=f"contact[{i}].law")
     for name, material in config["materials"].items():
         if material.get("f_bar"):
             raise ConfigError(f"materials.{name}.f_bar = true: expected false in a run with contact pairs "

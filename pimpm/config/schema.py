@@ -57,6 +57,9 @@ DEFAULT_CONTACT_STIFFNESS = 100.0
 #: (largest P-wave modulus) / h; docs/VALIDATION.md measures what each costs
 DEFAULT_SLIP_TOLERANCE = 1e-3
 DEFAULT_TANGENTIAL_STIFFNESS = 0.3
+#: the contact pairs' penalty (pimpm.terms.pairs) grows smoothly over its first
+#: pair_onset x h of penetration (docs/VALIDATION.md: what it buys Newton)
+DEFAULT_PAIR_ONSET = 1e-4
 GEOMETRY_KEYS = {"box": ("type", "lower", "upper"), "ball": ("type", "center", "radius"),
                  "cylinder": ("type", "lower", "upper", "axis", "center", "radius"),
                  "half_space": ("type", "point", "normal"),

@@ -82,7 +82,7 @@ def write_checkpoint(sim, control, directory):
         f.attrs["control"] = json.dumps(control.state())
         f.attrs["work"] = json.dumps(sim.work.state())
         f.attrs["terms"] = json.dumps({term.name: term.state() for term in sim.terms})
-        f.attrs["fields"] = json.dumps(sim.fields.state())
+        f.attrs["fields"] = json.dumps(sim.fields.state(sim.grid))
         # each load's total share as summed at the start (summed again after the particles
         # migrated, the last bit of the load's resultant would differ from the run's)
         f.attrs["loads"] = json.dumps({load.name: load.total_share for load in sim.loads})

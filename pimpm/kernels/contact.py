@@ -480,7 +480,7 @@ def contact_faces(kind, params, x, offset_end, faces):
 
 @jit
 def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, friction, dim, f, D, traction,
-                  elastic, face=-1, hold=False, applied=-1.0):
+                  elastic, face=-1, hold=False, applied=-1.0, onset=0.0):
     """The contact law at one point: the force ``f`` on the body (dim), its
     derivative ``D`` = df/dy (dim x dim), the tangential traction on the
     body ``traction`` (dim) and the status (OPEN, STICK, SLIP), for the point
@@ -517,6 +517,12 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
     ``applied`` >= 0: the pressure is this (the explicit step's, applied at
     its trial state: :meth:`pimpm.terms.contact.ContactTool.settle`), not
     the penalty's at ``y``; 0 is open.
+    ``onset`` > 0: the penalty grows smoothly over the first ``onset`` of
+    penetration, p = kn phi^2 / (2 onset), and is kn (-phi - onset / 2)
+    beyond (continuous with its derivative: a point that flips between
+    open and pressed from one Newton iterate to the next does not jump
+    between no stiffness and the full penalty; the pairs' law:
+    :func:`pimpm.kernels.multifield.pair_forces`).
     Returns (status, pressure, the slip beyond the elastic one: the
     frictional dissipation is area mu p times it)."""
     n = np.empty(3)
@@ -540,11 +546,18 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
                     D[a, b] = -area * kn * n[a] * n[b] - area * held_kt * ((1.0 if a == b else 0.0) - n[a] * n[b])
             return HELD, 0.0, 0.0
         return OPEN, 0.0, 0.0
-    p = -kn * phi                             # the penalty pressure, dp/dy = -kn n
+    p = -kn * phi                             # the penalty pressure, dp/dy = -kp n
+    kp = kn
+    if onset > 0.0:
+        if phi > -onset:
+            p = kn * phi * phi / (2.0 * onset)
+            kp = -kn * phi / onset
+        else:
+            p = -kn * (phi + 0.5 * onset)
     for a in range(dim):
         f[a] = area * p * n[a]
         for b in range(dim):
-            D[a, b] = area * (-kn * n[a] * n[b] + p * H[a, b])
+            D[a, b] = area * (-kp * n[a] * n[b] + p * H[a, b])
     if not friction:
         return SLIP, p, 0.0
     # trial elastic slip s = P v, v = history + slip (dv/dy = I), and
@@ -583,7 +596,7 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
             for b in range(dim):
                 dt[a, b] = -k * ds[a, b]
                 if not capped:                # dk/dy = (mu / stick) dp/dy
-                    dt[a, b] += s[a] * mu * kn * n[b] / stick
+                    dt[a, b] += s[a] * mu * kp * n[b] / stick
     else:                                     # slip: t = -mu p e, e = s / |s|
         status = SLIP
         plastic = norm - limit                # the slip beyond the elastic one
@@ -597,7 +610,7 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
                 proj = 0.0
                 for c in range(dim):
                     proj += ((1.0 if a == c else 0.0) - e[a] * e[c]) * ds[c, b]
-                dt[a, b] = mu * kn * e[a] * n[b] - mu * p / norm * proj
+                dt[a, b] = mu * kp * e[a] * n[b] - mu * p / norm * proj
     for a in range(dim):
         f[a] += area * t[a]
         traction[a] = t[a]

@@ -33,7 +33,7 @@ from .jit import jit, jit_inline
 
 BONDED, FRICTIONLESS, FRICTION = 0, 1, 2
 #: a pair's contact state (:func:`pair_forces`)
-OPEN, STICK, SLIP = 0, 1, 2
+OPEN, STICK, SLIP, HELD = 0, 1, 2, 3
 #: candidate contact normals per field and node (:func:`outward_normals`)
 AXES = 3
 #: the per-pair sums kept by :func:`pair_impulses`: normal and tangential
@@ -221,14 +221,17 @@ def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, s
 
 
 @jit
-def pair_candidates(mass, normal, extent, partner, floor, nodes, fields, normals, gaps):
+def pair_candidates(mass, density, normal, extent, partner, floor, nodes, fields, normals, gaps, shares):
     """The implicit step's contact candidates: every (owned node, f < g) that
     both fields reach, with the pair's separating axis n (from f towards g)
     and the gap along it at the start of the step, as in
     :func:`pair_impulses`; fills ``nodes`` (k,), ``fields`` (k, 2),
     ``normals`` (k, dim), ``gaps`` (k,) (sized for the worst case) and
-    returns k. A pair without a usable axis (a field's normal is zero) gets
-    a zero normal: only a bonded law acts there."""
+    returns k; ``shares`` (k,): the smaller of the two fields' volumes at the
+    node over the larger (their masses over their fields' densities
+    ``density``), the pair's share of the node's surface. A pair without a
+    usable axis (a field's normal is zero) gets a zero normal: only a bonded
+    law acts there."""
     n, n_fields = mass.shape
     dim = normal.shape[3]
     k = 0
@@ -246,22 +249,27 @@ def pair_candidates(mass, normal, extent, partner, floor, nodes, fields, normals
                 fields[k, 0] = f
                 fields[k, 1] = g
                 gaps[k] = gap if gap > -1e299 else 0.0
+                vf, vg = mass[i, f] / density[f], mass[i, g] / density[g]
+                shares[k] = min(vf, vg) / max(vf, vg)
                 k += 1
     return k
 
 
 @jit
-def pair_forces(nodes, fields, normals, gaps, law, mu, u, dim, n_fields, area, kn, stick, kt, history, force, D,
-                status, pressure, slip, elastic_slip):
+def pair_forces(nodes, fields, normals, gaps, law, mu, u, dim, n_fields, areas, kn, stick, kt, history, held, onset,
+                force, D, status, pressure, slip, elastic_slip):
     """The contact law of each candidate pair at the iterate ``u`` (owned
     field dofs, flat): with d = u_f - u_g the relative displacement over the
     step, field f is a point at the signed distance gap - d . n from field
     g's surface, a half-space (:func:`pimpm.kernels.contact.contact_point`:
-    the same penalty and regularized Coulomb law as the rigid tools, the
-    elastic slip carried in from the last step at the same grid node:
-    ``history`` (k, dim)); a bonded pair is held by the penalty kn in every
-    direction. Fills the force on field f (``force`` (k, dim); field g gets
-    its opposite), D = d force / d d (k, dim, dim), the status, the
+    the rigid tools' penalty and regularized Coulomb law, the penalty
+    growing smoothly over its first ``onset`` of penetration; the elastic
+    slip carried in from the last step at the same grid node: ``history``
+    (k, dim); ``held`` (k,): the pair's status at the end of the last step,
+    for the first Jacobian's hold, or OPEN); ``areas`` (k,): each pair's
+    share of a node's surface. A bonded pair is held by the penalty kn in
+    every direction. Fills the force on field f (``force`` (k, dim); field
+    g gets its opposite), D = d force / d d (k, dim, dim), the status, the
     pressure, the slip beyond the elastic one and the elastic slip (the
     next step's history)."""
     params = np.zeros(12)
@@ -279,6 +287,7 @@ def pair_forces(nodes, fields, normals, gaps, law, mu, u, dim, n_fields, area, k
         for a in range(dim):
             d[a] = u[base_f + a] - u[base_g + a]
         kind = law[f_field, g_field]
+        area = areas[k]
         length = 0.0
         for a in range(dim):
             length += normals[k, a] * normals[k, a]
@@ -299,7 +308,8 @@ def pair_forces(nodes, fields, normals, gaps, law, mu, u, dim, n_fields, area, k
             y[a] = -gaps[k] * normals[k, a] + d[a]
             carried[a] = history[k, a]
         state, p, plastic = contact_point(HALF_SPACE, params, y, d, carried, area, kn, stick, kt, mu[f_field, g_field],
-                                          kind == FRICTION, dim, f, Dp, traction, elastic)
+                                          kind == FRICTION, dim, f, Dp, traction, elastic, -1, held[k], -1.0,
+                                          onset)
         for a in range(dim):
             elastic_slip[k, a] = elastic[a]
         for a in range(dim):

@@ -79,11 +79,11 @@ def prepare(sim, dt):
         empty = (mass <= sim.mass_floor) & (stiffness_weight <= sim.mass_floor)
         fixed = fields.spread(grid, cons.fixed) | empty
         fixed_value = np.where(empty, 0.0, fields.spread(grid, cons.value))
-        nodes, pair_fields, normals, gaps = fields.candidates(sim, node_index, S, G,
+        nodes, pair_fields, normals, gaps, shares = fields.candidates(sim, node_index, S, G,
                                                               np.where(mass > sim.mass_floor, mass, 0.0))
         for term in sim.terms:
             if isinstance(term, FieldContact):
-                term.set_candidates(grid, nodes, pair_fields, normals, gaps)
+                term.set_candidates(grid, nodes, pair_fields, normals, gaps, shares)
         local = grid.owned_local_nodes[nodes]
         pairs = local[:, None] * fields.count + pair_fields
     materials = sim.material_table()

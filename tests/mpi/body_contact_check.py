@@ -1,6 +1,7 @@
 """Deformable bodies in contact on any number of ranks (tests/test_body_contact.py):
 two disks through their impact and Nairn's frictional block, explicit, and
-the disks with the trapezoidal rule (a frictionless pair inside Newton). Saves
+with the trapezoidal rule the disks (a frictionless pair inside Newton) and
+the block (Coulomb's stick and slip inside Newton). Saves
 every particle's position and velocity (in id order) and the pairs' forces
 to the .npz file named on the command line (rank 0)."""
 import os
@@ -21,7 +22,9 @@ comm = MPI.COMM_WORLD
 out = {}
 for name, config, end in (("disks", disks_config(20), 3.2),
                           ("block", block_on_plane_config(5e-3, "friction", 0.5), 0.15e-3),
-                          ("implicit_disks", disks_config(20, integrator="newmark", dt=0.1), 3.2)):
+                          ("implicit_disks", disks_config(20, integrator="newmark", dt=0.1), 3.2),
+                          ("implicit_block", block_on_plane_config(5e-3, "friction", 0.5, integrator="newmark",
+                                                                   dt=1.3e-5), 0.15e-3)):
     sim = Simulation(dict(config, time=dict(config["time"], end_time=end)), comm)
     forces = []
     while sim.time < end * (1 - 1e-12):
