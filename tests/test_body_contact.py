@@ -165,7 +165,9 @@ def test_without_the_pair_the_block_does_not_slide():
 @pytest.mark.mpi
 def test_contact_pairs_give_the_same_answer_on_1_2_and_4_ranks(tmp_path):
     """The disks through their impact and the frictional block, explicit and
-    implicit: 1, 2 and 4 (2 x 2) ranks agree to 1e-8."""
+    implicit, and inside Newton the stack (settling and the start of the
+    push) and the disk sliding down its slope: 1, 2 and 4 (2 x 2) ranks
+    agree to 1e-8."""
     results = []
     for n in (1, 2, 4):
         out = tmp_path / f"ranks{n}.npz"

@@ -1,7 +1,8 @@
 """Deformable bodies in contact on any number of ranks (tests/test_body_contact.py):
 two disks through their impact and Nairn's frictional block, explicit, and
 with the trapezoidal rule the disks (a frictionless pair inside Newton) and
-the block (Coulomb's stick and slip inside Newton). Saves
+the block, the stack of three blocks and the disk sliding down its slope
+(Coulomb's stick and slip inside Newton). Saves
 every particle's position and velocity (in id order) and the pairs' forces
 to the .npz file named on the command line (rank 0)."""
 import os
@@ -15,7 +16,8 @@ from mpi4py import MPI  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                                 "scripts"))
-from body_contact_validation import block_on_plane_config, disks_config, step_size  # noqa: E402
+from body_contact_validation import (block_on_plane_config, disk_on_slope_config, disks_config,  # noqa: E402
+                                     march, stacked_blocks_config)
 from pimpm.simulation import Simulation  # noqa: E402
 
 comm = MPI.COMM_WORLD
@@ -24,11 +26,13 @@ for name, config, end in (("disks", disks_config(20), 3.2),
                           ("block", block_on_plane_config(5e-3, "friction", 0.5), 0.15e-3),
                           ("implicit_disks", disks_config(20, integrator="newmark", dt=0.1), 3.2),
                           ("implicit_block", block_on_plane_config(5e-3, "friction", 0.5, integrator="newmark",
-                                                                   dt=1.3e-5), 0.15e-3)):
+                                                                   dt=1.3e-5), 0.15e-3),
+                          ("implicit_stack", stacked_blocks_config(0.01, (0.5, 0.1, 0.8), integrator="newmark",
+                                                                   dt=1.4e-3), 0.04),
+                          ("implicit_slope", disk_on_slope_config(0.02, 0.1, integrator="newmark", dt=8.6e-3), 0.1)):
     sim = Simulation(dict(config, time=dict(config["time"], end_time=end)), comm)
     forces = []
-    while sim.time < end * (1 - 1e-12):
-        info = sim.advance(min(step_size(sim), end - sim.time))
+    for info, _ in march(sim, end):
         pair = info["contact"][sim.fields.names[0]]
         # (not the count of nodes in contact: a node whose approach is round-off may flip)
         forces.append([pair["normal_force"], pair["tangential_force"]])
