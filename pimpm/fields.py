@@ -228,20 +228,22 @@ class BodyFields:
         self._extent = grid.max_columns_to_owned(extent.reshape(grid.n_local_nodes, axes_n * count)).reshape(
             grid.n_owned_nodes, count, axes_n)
         self._floor = sim.mass_floor
-        if self._density is None:               # each field's reference density (mass over volume)
+
+    def candidates(self, sim, node_index, S, G, nodal_mass):
+        """The implicit step's contact candidates at the owned nodes (after
+        :meth:`find_contacts`' geometry): (grid nodes, (f, g), separating
+        axes, gaps at the start of the step, each pair's share of its node's
+        surface). Collective."""
+        self.find_contacts(sim, node_index, S, G, nodal_mass)
+        n, count, dim = sim.grid.n_owned_nodes, self.count, sim.dim
+        if self._density is None:               # each field's reference density (mass over volume), once
+            p = sim.particles
             field = self.of_body[p["body"]]
             sums = np.zeros((2, count))
             np.add.at(sums[0], field, p["mass"])
             np.add.at(sums[1], field, p["volume0"])
             sums = sim.comm.allreduce(sums)
             self._density = np.where(sums[1] > 0.0, sums[0] / np.where(sums[1] > 0.0, sums[1], 1.0), 1.0)
-
-    def candidates(self, sim, node_index, S, G, nodal_mass):
-        """The implicit step's contact candidates at the owned nodes (after
-        :meth:`find_contacts`' geometry): (grid nodes, (f, g), separating
-        axes, gaps at the start of the step). Collective."""
-        self.find_contacts(sim, node_index, S, G, nodal_mass)
-        n, count, dim = sim.grid.n_owned_nodes, self.count, sim.dim
         worst = n * count * (count - 1) // 2
         nodes, fields = np.empty(worst, dtype=np.int64), np.empty((worst, 2), dtype=np.int64)
         normals, gaps, shares = np.empty((worst, dim)), np.empty(worst), np.empty(worst)

@@ -44,13 +44,20 @@ def block_acceleration_exact(mu):
     return (PUSH - mu * PRESS) / BLOCK_MASS
 
 
+def implicit_overrides(integrator, dt):
+    """The ``--set`` overrides of an implicit run at step ``dt`` (HHT with
+    alpha = -0.3); none for ``integrator`` None (the input's explicit one)."""
+    if not integrator:
+        return []
+    return [f"time.integrator={integrator}", f"time.dt={dt}"] + (["time.alpha=-0.3"] if integrator == "hht" else [])
+
+
 def block_on_plane_config(h=2.5e-3, law="friction", mu=0.5, shape=None, end_time=None, integrator=None, dt=None):
     """``inputs/block_on_plane.yaml`` at cells of ``h`` (m); ``law`` None:
     no contact pair (one shared field); ``integrator``, ``dt``: an implicit
     one at that step instead of the explicit one."""
     overrides = [f"grid.cells=[{int(round(0.140 / h))}, {int(round(0.045 / h))}]"]
-    if integrator:
-        overrides += [f"time.integrator={integrator}", f"time.dt={dt}"] + (["time.alpha=-0.3"] if integrator == "hht" else [])
+    overrides += implicit_overrides(integrator, dt)
     if law is None:
         overrides.append("contact=null")
     else:
@@ -73,22 +80,32 @@ def body_sums(sim, body):
     return sim.comm.allreduce(local)
 
 
+def track(sim, bodies):
+    """Run ``sim`` to its end time (:func:`march`), keeping after every step
+    the bodies' mean velocity and centre of mass: (times (steps,),
+    velocities and centres (steps, len(bodies), dim), the steps' infos)."""
+    dim = sim.dim
+    t, v, x, infos = [], [], [], []
+    for info, _ in march(sim, sim.config["time"]["end_time"]):
+        infos.append(info)
+        sums = np.array([body_sums(sim, b) for b in bodies])
+        t.append(sim.time)
+        v.append(sums[:, 1:1 + dim] / sums[:, :1])
+        x.append(sums[:, 1 + dim:] / sums[:, :1])
+    return np.array(t), np.array(v), np.array(x), infos
+
+
 def block_on_plane(config, comm=MPI.COMM_WORLD):
     """Run it; the block's acceleration fitted to its mean velocity after
     the ramp (t >= 0.2 ms), the time its velocity line crosses zero, the
     energy balance (kinetic + strain + frictional dissipation over the
     external work) and the steps."""
     sim = Simulation(config, comm)
-    block = sim.body_names.index("block")
-    t, v, infos = [], [], []
-    for info, _ in march(sim, config["time"]["end_time"]):
-        infos.append(info)
-        s = body_sums(sim, block)
-        t.append(sim.time)
-        v.append(s[1] / s[0])
-    t, v = np.array(t), np.array(v)
+    t, v, _, infos = track(sim, [sim.body_names.index("block")])
+    v = v[:, 0, 0]
     late = t >= 0.2e-3
     a, b = np.polyfit(t[late], v[late], 1)
+    info = infos[-1]
     dissipation = info.get("frictional_dissipation", 0.0)
     balance = (info["kinetic_energy"] + info["strain_energy"] + dissipation) / info["external_work"]
     return {"acceleration": float(a), "start": float(-b / a), "energy_balance": float(balance),
@@ -198,8 +215,7 @@ def stacked_blocks_config(h=0.01, mus=(0.5, 0.1, 0.8), end_time=None, integrator
     pairs = ", ".join(f"{{bodies: [{lower}, {upper}], law: friction, friction_coefficient: {mu}}}"
                       for (lower, upper), mu in zip((("floor", "a"), ("a", "b"), ("b", "c")), mus))
     overrides = [f"grid.cells=[{int(round(0.5 / h))}, {int(round(0.3 / h))}]", f"contact=[{pairs}]"]
-    if integrator:
-        overrides += [f"time.integrator={integrator}", f"time.dt={dt}"] + (["time.alpha=-0.3"] if integrator == "hht" else [])
+    overrides += implicit_overrides(integrator, dt)
     if end_time:
         overrides.append(f"time.end_time={end_time}")
     return load_config(os.path.join(INPUTS, "stacked_blocks.yaml"), overrides)
@@ -218,13 +234,8 @@ def stacked_blocks(config, comm=MPI.COMM_WORLD):
     """Run the stack: each body's displacement along x at the end and its
     acceleration over g fitted after the push is applied (t >= 80 ms)."""
     sim = Simulation(config, comm)
-    t, x, infos = [], [], []
-    for info, _ in march(sim, config["time"]["end_time"]):
-        infos.append(info)
-        sums = [body_sums(sim, b) for b in range(4)]
-        t.append(sim.time)
-        x.append([s[3] / s[0] for s in sums])
-    t, x = np.array(t), np.array(x)
+    t, _, x, infos = track(sim, range(4))
+    x = x[:, :, 0]
     late = t >= 0.08
     g = -config["time"]["gravity"][1]
     return {"displacement": (x[-1] - x[0]).tolist(),
@@ -238,8 +249,7 @@ def disk_on_slope_config(h=0.01, mu=0.5, shape=None, end_time=None, integrator=N
     rows = int(np.ceil(0.35 / h - 1e-9))          # square cells: the grid's top at or above the input's
     overrides = [f"grid.cells=[{int(round(1.0 / h))}, {rows}]", f"grid.upper=[1.0, {rows * h:.12g}]",
                  f"contact=[{{bodies: [disk, plate], law: friction, friction_coefficient: {mu}}}]"]
-    if integrator:
-        overrides += [f"time.integrator={integrator}", f"time.dt={dt}"] + (["time.alpha=-0.3"] if integrator == "hht" else [])
+    overrides += implicit_overrides(integrator, dt)
     if end_time:
         overrides.append(f"time.end_time={end_time}")
     if shape:
@@ -259,14 +269,8 @@ def disk_on_slope(config, comm=MPI.COMM_WORLD):
     """The disk's centre acceleration along the slope, fitted after the
     gravity ramp (t >= 50 ms)."""
     sim = Simulation(config, comm)
-    disk = sim.body_names.index("disk")
-    t, x, infos = [], [], []
-    for info, _ in march(sim, config["time"]["end_time"]):
-        infos.append(info)
-        s = body_sums(sim, disk)
-        t.append(sim.time)
-        x.append(s[3] / s[0])
-    t, x = np.array(t), np.array(x)
+    t, _, x, infos = track(sim, [sim.body_names.index("disk")])
+    x = x[:, 0, 0]
     late = t >= 0.05
     return {"acceleration": float(2 * np.polyfit(t[late], x[late], 2)[0]), "steps": sim.step_index,
             **newton_counts(infos)}

@@ -80,8 +80,8 @@ class FieldContact(NodalTerm):
                  "pressure": np.empty(k), "slip": np.empty(k), "elastic": np.empty((k, dim))}
         kernels.pair_forces(self.nodes, self.pair_fields, self.normals, self.gaps, self.fields.law, self.fields.mu,
                             np.ascontiguousarray(u_owned), dim, self.fields.count, self.areas, self.kn, self.stick,
-                            self.kt, self.history, held, self.onset, local["force"], local["D"], local["status"], local["pressure"],
-                            local["slip"], local["elastic"])
+                            self.kt, self.history, held, self.onset, local["force"], local["D"], local["status"],
+                            local["pressure"], local["slip"], local["elastic"])
         self._u, self._local = np.array(u_owned, copy=True), local
         return local
 

@@ -1,6 +1,6 @@
 """The central-difference check of an assembled Jacobian that the MPI
 check scripts share (tests/mpi/jacobian_check.py,
-tests/mpi/contact_jacobian_check.py)."""
+tests/mpi/contact_jacobian_check.py, tests/mpi/pair_jacobian_check.py)."""
 import numpy as np
 from mpi4py import MPI
 
@@ -90,3 +90,13 @@ def shell_errors(grid, problem, terms, solver_config, state, X, R, J, comm, seed
     diagonal = d_shell.norm() / d.norm()
     shell_solver.destroy()
     return product, diagonal
+
+
+def tangent_errors(grid, problem, terms, solver_config, state, X, R, J, comm):
+    """The assembled ``J`` at ``X`` (formed there already) against central
+    differences over the free dofs (:func:`jacobian_error`, step 1e-8) and
+    against the matrix-free product and diagonal (:func:`shell_errors`):
+    (relative error, product error, diagonal error). Collective."""
+    err, scale, _ = jacobian_error(problem, J, X, R, ~state.fixed, comm, h=1e-8)
+    shell_error, diagonal_error = shell_errors(grid, problem, terms, solver_config, state, X, R, J, comm)
+    return err / scale, shell_error, diagonal_error

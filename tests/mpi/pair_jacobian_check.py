@@ -26,7 +26,7 @@ from pimpm.steps import implicit as implicit_step  # noqa: E402
 from pimpm.kernels import multifield as kernels  # noqa: E402
 from pimpm.terms.pairs import FieldContact  # noqa: E402
 
-from finite_differences import jacobian_error, shell_errors  # noqa: E402 (tests/mpi/)
+from finite_differences import tangent_errors  # noqa: E402 (tests/mpi/)
 
 dim = int(sys.argv[1][0])
 law = sys.argv[2]
@@ -67,12 +67,9 @@ problem.form_residual(None, X, R)
 problem.form_jacobian(None, X, solver.J, solver.J)
 status = term._local["status"]
 states = comm.allreduce(np.array([np.sum(status == k) for k in range(3)]))
-free_local = ~state.fixed
-err, scale, _ = jacobian_error(problem, solver.J, X, R, free_local, comm, h=1e-8)
-# the matrix-free product and diagonal (pimpm.implicit.shell) against the assembled matrix
-shell_error, diagonal_error = shell_errors(sim.solve_grid, problem, sim.terms, sim.config["solver"], state, X, R, solver.J,
-                                           comm)
-relative = err / scale
+# the central differences, and the matrix-free product and diagonal (pimpm.implicit.shell)
+relative, shell_error, diagonal_error = tangent_errors(sim.solve_grid, problem, sim.terms, sim.config["solver"],
+                                                       state, X, R, solver.J, comm)
 if comm.rank == 0:
     print(f"pair jacobian {dim}d {law} {integrator} {shape} ranks {comm.size}: relative error {relative:.3e}, "
           f"shell {shell_error:.3e} (diagonal {diagonal_error:.3e}), pairs open/stick/slip {states.tolist()}")
