@@ -18,6 +18,11 @@ from .kernels import multifield as kernels
 LAWS = {"bonded": kernels.BONDED, "frictionless": kernels.FRICTIONLESS, "friction": kernels.FRICTION}
 #: each pair's history columns, as the contact tools' (pimpm.io.history.CONTACT_COLUMNS)
 PAIR_COLUMNS = ("normal_force", "tangential_force", "contact_area", "contact_points")
+#: the grid output of runs with pairs, per node at the end of the step (frictionless and
+#: frictional pairs; :meth:`BodyFields.set_node_contact`): the most slipping state of the
+#: node's pairs (0 open, 1 stick, 2 slip), their normal pressure, and the traction on
+#: the body listed first in each pair (summed over the node's pairs)
+NODE_CONTACT_FIELDS = ("contact_status", "contact_pressure", "contact_traction")
 
 
 def sum_fields_to_owned(grid, count, local_values):
@@ -53,14 +58,19 @@ class BodyFields:
         self.mu = np.zeros((self.count, self.count))
         #: (name, f, g) of every declared pair, f < g
         self.pairs = []
+        #: +1 at (f, g) if the pair's first listed body is field f (-1 at (g, f)): the output's traction
+        self.orientation = np.zeros((self.count, self.count))
         for pair in config["contact"]:
             f, g = sorted(field_of_name[name] for name in pair["bodies"])
             self.law[f, g] = self.law[g, f] = LAWS[pair["law"]]
             self.mu[f, g] = self.mu[g, f] = pair.get("friction_coefficient", 0.0)
             self.pairs.append(("-".join(pair["bodies"]), f, g))
+            first = field_of_name[pair["bodies"][0]]
+            self.orientation[f, g], self.orientation[g, f] = (1.0, -1.0) if first == f else (-1.0, 1.0)
         self.dissipation = 0.0          # frictional dissipation so far (summed over ranks)
         self.last = {name: dict.fromkeys(PAIR_COLUMNS, 0.0) for name, _, _ in self.pairs}
         self._density = None
+        self._node_contact = None       # the last step's NODE_CONTACT_FIELDS (owned nodes)
         self._pending = None            # a checkpoint's candidates, until the grid is known
         #: implicit: each owned node's pairs' elastic slip, status and penetration (n, F * F, dim + 2)
         self._carried = None
@@ -201,9 +211,28 @@ class BodyFields:
         fields' total mass and their centre-of-mass velocity, acceleration and
         displacement increment (``mass`` and the others per field dof)."""
         total = self.total(grid, mass)
-        return {"mass": total, "velocity": self.centre_of_mass(grid, mass, velocity, total),
-                "acceleration": self.centre_of_mass(grid, mass, acceleration, total),
-                "displacement_increment": self.centre_of_mass(grid, mass, increment, total)}
+        out = {"mass": total, "velocity": self.centre_of_mass(grid, mass, velocity, total),
+               "acceleration": self.centre_of_mass(grid, mass, acceleration, total),
+               "displacement_increment": self.centre_of_mass(grid, mass, increment, total)}
+        return {**out, **self.node_contact(grid)}
+
+    def set_node_contact(self, status, pressure, traction):
+        """The step's contact at the owned grid nodes: the most
+        slipping status of the node's pairs (n,), their normal pressure (n,)
+        and the traction on each pair's first listed body (n, dim)."""
+        self._node_contact = (status, pressure, traction)
+
+    def node_contact(self, grid):
+        """The NODE_CONTACT_FIELDS per grid dof (the scalars repeated, as the
+        mass): the last step's, zero before the first; none without pairs."""
+        if not self.pairs:
+            return {}
+        n, dim = grid.n_owned_nodes, grid.dim
+        if self._node_contact is None or len(self._node_contact[0]) != n:
+            self._node_contact = (np.zeros(n), np.zeros(n), np.zeros((n, dim)))
+        status, pressure, traction = self._node_contact
+        return {"contact_status": np.repeat(np.asarray(status, dtype=float), dim),
+                "contact_pressure": np.repeat(pressure, dim), "contact_traction": np.reshape(traction, -1)}
 
     def find_contacts(self, sim, node_index, S, G, nodal_mass):
         """Where the fields meet this step: their outward normals and how far
@@ -259,11 +288,14 @@ class BodyFields:
         grid, count = sim.grid, self.count
         v = velocity.reshape(grid.n_owned_nodes, count, sim.dim).copy()
         sums = np.zeros((count * count, kernels.PAIR_SUMS))
+        status = np.empty(grid.n_owned_nodes, dtype=np.int64)
+        impulse = np.empty((grid.n_owned_nodes, 1 + sim.dim))
         kernels.pair_impulses(self._mass, v, self._normal, self._extent, self._partner, self.law, self.mu, dt,
-                              self._floor, sums)
+                              self._floor, sums, self.orientation, status, impulse)
         if report:
             sums = sim.comm.allreduce(sums)
             area = float(np.prod(grid.spacing)) / float(np.min(grid.spacing))   # a node's share of a face
+            self.set_node_contact(status, impulse[:, 0] / (dt * area), impulse[:, 1:] / (dt * area))
             for name, f, g in self.pairs:
                 row = sums[f * count + g]
                 self.last[name] = {"normal_force": float(row[0] / dt), "tangential_force": float(row[1] / dt),

@@ -169,29 +169,39 @@ def _number(command_line, name, default):
 #: Newton iterations instead of 8
 REUSE_FACTORIZATION_OPTIONS = {"mat_mumps_icntl_35": "2", "mat_mumps_icntl_36": "1", "mat_mumps_cntl_7": "1e-4"}
 
-#: the line search of runs with unilateral contact (pimpm.terms.contact). A
-#: Newton step taken where a corner has just left the tool (the predictor lags
-#: a withdrawing plate by a fraction of a cell) lets the body spring back through
-#: it; bt's backtracking then crawls (inputs/plate_release.yaml unloading: 7-12
-#: iterations, 8-24 backtracks per step), l2's secant on the residual norm does
-#: not (4 iterations)
+#: the options a run's unilateral contact needs, by the kind of its terms
+#: (their ``contact_kind``). With rigid tools (pimpm.terms.contact), l2's line
+#: search: a Newton step taken where a corner has just left the tool (the
+#: predictor lags a withdrawing plate by a fraction of a cell) lets the body
+#: spring back through it; bt's backtracking then crawls
+#: (inputs/plate_release.yaml unloading: 7-12 iterations, 8-24 backtracks per
+#: step), l2's secant on the residual norm does not (4 iterations). Between
+#: deformable bodies (pimpm.terms.pairs) l2 too where a pair has friction: at
+#: large steps bt needs more iterations and cuts to settle stick and slip (the
+#: disk sliding down its slope at 100x the explicit step: 7.3 iterations a
+#: step, 1 cut, against 5.9; Nairn's block at 1000x: 4 cuts against 1); but
+#: frictionless and bonded pairs keep bt, since l2 costs two more residuals an
+#: iteration and settles them no faster (the four disks: 1.47 against 1.76
+#: times the shared field's time, the same 274 Newton iterations;
+#: scripts/bench_contact_pairs.py). None has a divergence test: the residual
+#: at the predictor of a body resting on a tool or another body is round-off
+#: small, and the first iterates (the contact zone settling) exceed 1e4 times
+#: it; PETSc's default divergence tolerance then stops Newton
+#: (inputs/friction_onset.yaml at dt = 0.05: 4 cuts and a failed run; without
+#: it no cut and 3.8 Newton iterations a step)
 CONTACT_LINE_SEARCH = "l2"
-#: ... and no divergence test: the residual at the predictor of a body resting
-#: on a tool is round-off small, and the first iterates (the contact zone
-#: settling) exceed 1e4 times it; PETSc's default divergence tolerance then
-#: stops Newton (inputs/friction_onset.yaml at dt = 0.05: 4 cuts and a failed
-#: run; without it no cut and 3.8 Newton iterations a step)
-CONTACT_OPTIONS = {"snes_linesearch_type": CONTACT_LINE_SEARCH, "snes_divergence_tolerance": "-1"}
+_SECANT = {"snes_linesearch_type": CONTACT_LINE_SEARCH, "snes_divergence_tolerance": "-1"}
+CONTACT_OPTIONS = {"tool": _SECANT, "frictional pair": _SECANT, "pair": {"snes_divergence_tolerance": "-1"}}
 
 
 def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern, coo, asymmetry="",
-            contact=False):
+            contact=()):
     """The solver of a run from the input's ``solver`` section, the command
     line (``command_line``: PETSc's options database as {name: value}, no
     dash) and what the step's problem is like (a ``symmetric`` tangent, the
     dimension, whether it assembles on the particles' pattern through COO
     values; ``asymmetry`` says why it is not symmetric, for the message;
-    ``contact``: it has unilateral contact terms). A pure function; ValueError naming the option or key and its value."""
+    ``contact``: the kinds of its unilateral contact terms, CONTACT_OPTIONS' keys). A pure function; ValueError naming the option or key and its value."""
     preset = _word(command_line, "pimpm_preset", solver_config["preset"])
     if preset not in PRESETS:
         raise ValueError(f"-pimpm_preset {shown(preset)}: expected one of {', '.join(PRESETS)}")
@@ -205,8 +215,8 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
     wants_fallback = _flag(command_line, "pimpm_fallback", bool(solver_config["fallback"]))
     use_fallback = is_iterative and not is_matrix_free and wants_fallback
     options = dict(DEFAULT_SOLVER_OPTIONS)
-    if contact:
-        options.update(CONTACT_OPTIONS)
+    for kind in sorted(contact):
+        options.update(CONTACT_OPTIONS[kind])
     options.update(petsc_options(preset_options))
     if use_fallback:
         options.update(FALLBACK_OPTIONS)

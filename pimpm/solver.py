@@ -203,7 +203,7 @@ class NewtonSolver:
         plan = presets.resolve(solver_config, command_line_options(), symmetric=problem.symmetric,
                                dim=grid.dim, assembles_on_pattern=problem.assembles_on_pattern,
                                coo=problem.coo, asymmetry=problem.asymmetry,
-                               contact=any(term.couples_particles for term in problem.terms))
+                               contact={term.contact_kind for term in problem.terms} - {None})
         self.plan = plan
         self.preset = plan.preset
         self.matrix_free = plan.matrix_free

@@ -49,6 +49,17 @@ def test_options_are_defaults_then_preset_then_adjustments_then_yaml():
     assert resolve(preset="cg-gamg").options["ksp_type"] == "cg"
 
 
+def test_contact_sets_its_line_search_and_no_divergence_test_unless_the_yaml_says():
+    """Rigid tools and frictional pairs: l2; frictionless and bonded pairs:
+    the default bt (pimpm.presets.CONTACT_OPTIONS); none has a divergence test."""
+    for kinds, line_search in (((), "bt"), ({"tool"}, "l2"), ({"frictional pair"}, "l2"), ({"pair"}, "bt")):
+        options = resolve(problem={"contact": kinds}).options
+        assert options["snes_linesearch_type"] == line_search, kinds
+        assert ("snes_divergence_tolerance" in options) == bool(kinds), kinds
+    options = resolve(problem={"contact": {"pair"}}, petsc={"snes_linesearch_type": "l2"}).options
+    assert options["snes_linesearch_type"] == "l2"
+
+
 def test_the_command_line_chooses_the_preset_and_pimpm_switches():
     plan = resolve({"pimpm_preset": "gmres-gamg"})
     assert plan.preset == "gmres-gamg" and plan.iterative and plan.fallback and plan.near_null_space

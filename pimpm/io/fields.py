@@ -5,6 +5,9 @@ import numpy as np
 from .. import faults
 from ..materials import von_mises
 
+#: the grid fields with one value per node (kept per dof, repeated, as the step's arrays)
+SCALAR_GRID_FIELDS = ("mass", "contact_status", "contact_pressure")
+
 
 def particle_fields(sim):
     p, r = sim.particles, sim.rigid
@@ -53,11 +56,11 @@ def grid_fields(sim):
         node_index, S, _ = sim.footprint()
         mass, velocity, acceleration, _ = sim.nodal_state(node_index, S)
         sim.last_grid = {"mass": mass, "velocity": velocity, "acceleration": acceleration,
-                         "displacement_increment": np.zeros(n)}
+                         "displacement_increment": np.zeros(n), **sim.fields.node_contact(grid)}
     out = {}
     for name, values in sim.last_grid.items():
         view = grid.owned_view(values)
-        out[name] = view[..., 0] if name == "mass" else view
+        out[name] = view[..., 0] if name in SCALAR_GRID_FIELDS else view
     return out
 
 

@@ -155,18 +155,28 @@ def _separating_axis(normal, extent, partner, i, f, g, axis):
 
 
 @jit
-def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, sums):
+def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, sums, orientation, node_status,
+                  node_impulse):
     """Apply the contact law to the end-of-step velocities ``velocity`` (n,
     F, dim; in place) at every owned node two fields reach (``mass`` (n,
     F), ``normal``, ``partner``: :func:`outward_normals`, ``extent`` the
     surfaces' reach along the normals, ``law`` and ``mu`` (F, F) each pair's law and
     coefficient). Adds each pair's normal and tangential impulse, contact
     nodes and frictional dissipation into ``sums`` (F * F, PAIR_SUMS). The
-    impulses are equal and opposite: momentum is kept exactly."""
+    impulses are equal and opposite: momentum is kept exactly. Per node
+    (the output; frictionless and frictional pairs), set here:
+    ``node_status`` (n,) the most slipping state of its pairs (OPEN,
+    STICK, SLIP; a frictionless pair in contact slips), and
+    ``node_impulse`` (n, 1 + dim) the sum of its pairs' normal impulses
+    and of the impulses on each pair's first listed body (the field whose
+    ``orientation`` (F, F) is +1)."""
     n, n_fields, dim = velocity.shape
     w = np.empty(dim)
     nv = np.empty(dim)
     for i in range(n):
+        node_status[i] = OPEN
+        for a in range(node_impulse.shape[1]):
+            node_impulse[i, a] = 0.0
         for f in range(n_fields):
             mf = mass[i, f]
             if mf <= floor:
@@ -211,9 +221,13 @@ def pair_impulses(mass, velocity, normal, extent, partner, law, mu, dt, floor, s
                     impulse = pn * nv[a] + (pt * w[a] / wt if wt > 0.0 else 0.0)
                     velocity[i, f, a] -= impulse / mf
                     velocity[i, g, a] += impulse / mg
+                    node_impulse[i, 1 + a] -= orientation[f, g] * impulse
+                node_impulse[i, 0] += pn
                 # the friction force's work on the step's slip (the positions move
                 # with the new velocities)
                 wt_after = wt - pt / reduced
+                sliding = law[f, g] != FRICTION or wt_after > 1e-12 * wt
+                node_status[i] = max(node_status[i], SLIP if sliding else STICK)
                 sums[row, 0] += pn
                 sums[row, 1] += pt
                 sums[row, 2] += 1.0

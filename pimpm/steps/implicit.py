@@ -141,11 +141,11 @@ def extend_weak_nodes(sim, node_index, S, G, dt):
 
 
 def initial_guess(sim, state):
-    """G&W step 2: the integrator's predictor, or u = 0 if that would
-    invert a particle; prescribed values on prescribed dofs; then each
-    term's correction (contact tools push the corners it drives into them
-    back out: :meth:`pimpm.terms.NodalTerm.predict`), unless it inverts a
-    particle. Where the predictor moves no free dof (a body at rest), the
+    """G&W step 2: the integrator's predictor with each term's correction
+    (contact tools push the corners it drives into them back out:
+    :meth:`pimpm.terms.NodalTerm.predict`), or without it if that inverts a
+    particle, or u = 0 (corrected) if the predictor does; prescribed values
+    on prescribed dofs. Where the predictor moves no free dof (a body at rest), the
     linearized response to the prescribed motion instead, if the solver
     makes one (``solver.linear_predictor``; not with contact tools, whose
     predictor is their own)."""
@@ -156,13 +156,21 @@ def initial_guess(sim, state):
             linear = sim.solver.linear_predictor(state, guess)
             if linear is not None and not sim.problem.inverts(state, linear):
                 return linear
+    corrected = _corrected(sim, state, guess)
+    if corrected is not guess and not sim.problem.inverts(state, corrected):
+        return corrected                     # (its residual is Newton's first: evaluated once)
     if sim.problem.inverts(state, guess):
         guess = np.where(state.fixed, state.fixed_value, 0.0)
-    corrected = guess
+        corrected = _corrected(sim, state, guess)
+        if corrected is not guess and not sim.problem.inverts(state, corrected):
+            return corrected
+    return guess
+
+
+def _corrected(sim, state, guess):
+    """The Newton guess as the terms improve it (``guess`` itself if none does)."""
     for term in sim.terms:
-        corrected = term.predict(corrected, sim.grid, state.fixed)
-    if corrected is not guess and not sim.problem.inverts(state, corrected):
-        guess = corrected
+        guess = term.predict(guess, sim.grid, state.fixed)
     return guess
 
 
@@ -175,8 +183,6 @@ def update_particles(sim, state, cons, u, dt):
     u_local = sim.solve_grid.owned_to_local(u)
     forces = cons.reactions(sim.fields.total(grid, sim.problem.unconstrained_residual(u, u_local)), sim.comm,
                             sim.dim)
-    for term in sim.terms:                 # contact tools: their force on the material
-        term.report(forces, sim.comm)
     # converged state (kinematics and stress of the residual just evaluated),
     # a_g(t+dt) from eq. 16, interpolate to particles
     converged = state.residual_evaluation
@@ -196,6 +202,8 @@ def update_particles(sim, state, cons, u, dt):
             raise StepFailed(f"a particle would move {moved:.3g} cells at step "
                              f"{sim.step_index + 1} (t = {sim.time + dt:.6g}, dt = {dt:.6g}); "
                              f"time.max_particle_displacement is {limit:g}")
+    for term in sim.terms:                 # contact: their forces (once the step stands: they book dissipation)
+        term.report(forces, sim.comm)
     sim.work.add(forces, increments, u_p, sim.particle_external_force(sim.time),
                   sim.particle_external_force(sim.time + dt))
     p["x"] = new_x

@@ -52,6 +52,10 @@ class NodalTerm:
     name = "term"
     #: does the term's derivative couple the nodes of each particle's footprint?
     couples_particles = False
+    #: unilateral contact: "tool" (rigid tools), "pair" or "frictional pair"
+    #: (between bodies), whose solver options it needs
+    #: (pimpm.presets.CONTACT_OPTIONS); None otherwise
+    contact_kind = None
     #: is the term's derivative symmetric?
     symmetric_tangent = True
 

@@ -75,6 +75,7 @@ def geometry_code(geometry, dim, h):
 class ContactTool(NodalTerm):
     #: the tangent of the contact term couples each particle's footprint nodes
     couples_particles = True
+    contact_kind = "tool"
 
     def __init__(self, index, name, geometry, dim, h, velocity, stiffness, friction_coefficient=None,
                  function=ONE, axisymmetric=False, slip_tolerance=1e-3, tangential_stiffness=0.0):

@@ -40,6 +40,7 @@ class FieldContact(NodalTerm):
         self.kt = DEFAULT_TANGENTIAL_STIFFNESS * modulus / h
         self.onset = DEFAULT_PAIR_ONSET * h
         self.symmetric_tangent = not np.any(fields.law == kernels.FRICTION)
+        self.contact_kind = "pair" if self.symmetric_tangent else "frictional pair"   # pimpm.presets.CONTACT_OPTIONS
         self._u = None
 
     def set_candidates(self, grid, nodes, fields, normals, gaps, shares):
@@ -62,6 +63,7 @@ class FieldContact(NodalTerm):
         the approach beyond, as the explicit law does.
         """
         self.nodes, self.pair_fields, self.normals = nodes, fields, normals
+        self.grid_nodes = grid.n_owned_nodes
         self.local_nodes = grid.owned_local_nodes[nodes]        # ghosted-local grid nodes
         self.history, self.held, penetration = self.fields.carried(grid, nodes, fields)
         touched = (self.held == kernels.STICK) | (self.held == kernels.SLIP)
@@ -163,6 +165,24 @@ class FieldContact(NodalTerm):
             penetration = np.zeros(0)
         self.fields.keep(self.nodes, self.pair_fields, self._local["elastic"], status, penetration)
 
+    def _node_output(self, force, along, touching):
+        """The step's contact per owned node for the output
+        (pimpm.fields.NODE_CONTACT_FIELDS): the frictionless and frictional
+        pairs' most slipping status, normal pressure and traction on each
+        pair's first listed body, per a node's share of the surface (h^(dim-1)),
+        so that they sum to the pairs' forces over the nodes' areas."""
+        grid_nodes = self.grid_nodes
+        f, g = self.pair_fields[:, 0], self.pair_fields[:, 1]
+        shown = touching & (self.fields.law[f, g] != kernels.BONDED)
+        nodes = self.nodes[shown]
+        status = np.zeros(grid_nodes, dtype=np.int64)
+        np.maximum.at(status, nodes, self._local["status"][shown])
+        pressure = np.zeros(grid_nodes)     # per a node's whole share of the surface, as the explicit law's
+        np.add.at(pressure, nodes, np.abs(along[shown]) / self.area)
+        traction = np.zeros((grid_nodes, self.dim))
+        np.add.at(traction, nodes, self.fields.orientation[f[shown], g[shown], None] * force[shown] / self.area)
+        self.fields.set_node_contact(status, pressure, traction)
+
     def report(self, forces, comm, explicit=False):
         """The converged step's pair forces (pimpm.fields.BodyFields.last) and
         the frictional dissipation (area mu p times the slip beyond the elastic one)."""
@@ -180,6 +200,7 @@ class FieldContact(NodalTerm):
                                          self.areas * mu * local["pressure"] * local["slip"])):
             np.add.at(sums[:, column], rows, np.where(touching, values, 0.0))
         sums = comm.allreduce(sums)
+        self._node_output(force, along, touching)
         for name, f, g in self.fields.pairs:
             row = sums[f * count + g]
             self.fields.last[name] = {"normal_force": float(row[0]), "tangential_force": float(row[1]),
