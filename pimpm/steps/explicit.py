@@ -219,6 +219,7 @@ def advance(sim, dt):
         _check(sim, dt, saved, *failures, outside=outside)       # one reduction for the three checks
         if update != "usf":
             stress.commit()
+        fields.commit()
         sim.work.add(forces, increments, new_x - p["x"], sim.particle_external_force(sim.time),
                      sim.particle_external_force(sim.time))
         for term in sim.terms:
