@@ -71,7 +71,7 @@ class BodyFields:
         self.last = {name: dict.fromkeys(PAIR_COLUMNS, 0.0) for name, _, _ in self.pairs}
         self._density = None
         self._node_contact = None       # the last step's NODE_CONTACT_FIELDS (owned nodes)
-        self._step_dissipation = 0.0    # the explicit step's, until it stands (:meth:`commit`)
+        self._step_dissipation = []     # the step's, per pair, until it stands (:meth:`commit`)
         self._pending = None            # a checkpoint's candidates, until the grid is known
         #: implicit: each owned node's pairs' elastic slip, status and penetration (n, F * F, dim + 2)
         self._carried = None
@@ -301,15 +301,21 @@ class BodyFields:
                 row = sums[f * count + g]
                 self.last[name] = {"normal_force": float(row[0] / dt), "tangential_force": float(row[1] / dt),
                                    "contact_area": float(row[2] * area), "contact_points": int(row[2])}
-            self._step_dissipation = float(sum(sums[f * count + g, 3] for _, f, g in self.pairs))
+            self.book([sums[f * count + g, 3] for _, f, g in self.pairs])
         return v.reshape(-1)
 
+    def book(self, dissipations):
+        """The step's frictional dissipation of each pair (in :attr:`pairs`'
+        order), summed over ranks: booked when the step stands (:meth:`commit`)."""
+        self._step_dissipation = [float(d) for d in dissipations]
+
     def commit(self):
-        """The explicit step stands: book its frictional dissipation (a step
-        that fails after :meth:`contact` reported it and is retried must not
-        book it twice)."""
-        self.dissipation += self._step_dissipation
-        self._step_dissipation = 0.0
+        """The step stands: book its frictional dissipation (a step that
+        fails after the pairs reported it and is retried must not book it
+        twice). The explicit step and pimpm.terms.pairs call it."""
+        for dissipation in self._step_dissipation:
+            self.dissipation += dissipation
+        self._step_dissipation = []
 
 
 class FieldGrid:

@@ -28,12 +28,10 @@ At a node that two fields f and g both reach:
 """
 import numpy as np
 
-from .contact import HALF_SPACE, contact_point
+from .contact import HALF_SPACE, HELD, OPEN, SLIP, STICK, contact_point  # noqa: F401 (a pair's state: the law's)
 from .jit import jit, jit_inline
 
 BONDED, FRICTIONLESS, FRICTION = 0, 1, 2
-#: a pair's contact state (:func:`pair_forces`)
-OPEN, STICK, SLIP, HELD = 0, 1, 2, 3
 #: candidate contact normals per field and node (:func:`outward_normals`)
 AXES = 3
 #: the per-pair sums kept by :func:`pair_impulses`: normal and tangential

@@ -155,7 +155,8 @@ class FieldContact(NodalTerm):
 
     def commit(self, particles):
         """The converged step: each pair's elastic slip stays at its grid node
-        for the next step (the grid is the same every step)."""
+        for the next step (the grid is the same every step), and the
+        dissipation :meth:`report` found is booked."""
         status = np.where(self._local["status"] == kernels.HELD, kernels.OPEN, self._local["status"])
         if len(self.nodes):
             u = self._u.reshape(-1, self.fields.count, self.dim)
@@ -164,6 +165,7 @@ class FieldContact(NodalTerm):
         else:
             penetration = np.zeros(0)
         self.fields.keep(self.nodes, self.pair_fields, self._local["elastic"], status, penetration)
+        self.fields.commit()
 
     def _node_output(self, force, along, touching):
         """The step's contact per owned node for the output
@@ -205,4 +207,4 @@ class FieldContact(NodalTerm):
             row = sums[f * count + g]
             self.fields.last[name] = {"normal_force": float(row[0]), "tangential_force": float(row[1]),
                                       "contact_area": float(row[3]), "contact_points": int(row[2])}
-            self.fields.dissipation += float(row[4])
+        self.fields.book([sums[f * count + g, 4] for _, f, g in self.fields.pairs])
