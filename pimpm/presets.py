@@ -116,6 +116,9 @@ class SolverPlan:
     #: the direct solve on the free dofs factorizes once per step, and GMRES
     #: preconditioned by that factorization solves the step's later Newton systems
     reuse_factorization: bool = False
+    #: pimpm.line_search.FullStepFirst's threshold (PETSc's basic line search
+    #: with its pre-check), or None: the options' PETSc line search alone
+    full_step_first: float = None
     #: a step that starts from rest begins Newton at the linearized response to
     #: its prescribed motion (pimpm.solver.NewtonSolver.linear_predictor)
     linear_predictor: bool = False
@@ -170,28 +173,43 @@ def _number(command_line, name, default):
 REUSE_FACTORIZATION_OPTIONS = {"mat_mumps_icntl_35": "2", "mat_mumps_icntl_36": "1", "mat_mumps_cntl_7": "1e-4"}
 
 #: the options a run's unilateral contact needs, by the kind of its terms
-#: (their ``contact_kind``). With rigid tools (pimpm.terms.contact), l2's line
-#: search: a Newton step taken where a corner has just left the tool (the
-#: predictor lags a withdrawing plate by a fraction of a cell) lets the body
-#: spring back through it; bt's backtracking then crawls
+#: (their ``contact_kind``). With rigid tools (pimpm.terms.contact), l2's step
+#: where the full Newton step does not cut the residual norm to
+#: FULL_STEP_FIRST of it (pimpm.line_search.FullStepFirst, PETSc's basic with
+#: a pre-check): a Newton step taken where a corner has just left the tool
+#: (the predictor lags a withdrawing plate by a fraction of a cell) lets the
+#: body spring back through it; bt's backtracking then crawls
 #: (inputs/plate_release.yaml unloading: 7-12 iterations, 8-24 backtracks per
-#: step), l2's secant on the residual norm does not (4 iterations). Between
-#: deformable bodies (pimpm.terms.pairs) l2 too where a pair has friction: at
-#: large steps bt needs more iterations and cuts to settle stick and slip (the
-#: disk sliding down its slope at 100x the explicit step: 7.3 iterations a
-#: step, 1 cut, against 5.9; Nairn's block at 1000x: 4 cuts against 1); but
-#: frictionless and bonded pairs keep bt, since l2 costs two more residuals an
-#: iteration and settles them no faster (the four disks: 1.47 against 1.76
-#: times the shared field's time, the same 274 Newton iterations;
-#: scripts/bench_contact_pairs.py). None has a divergence test: the residual
-#: at the predictor of a body resting on a tool or another body is round-off
-#: small, and the first iterates (the contact zone settling) exceed 1e4 times
-#: it; PETSc's default divergence tolerance then stops Newton
-#: (inputs/friction_onset.yaml at dt = 0.05: 4 cuts and a failed run; without
-#: it no cut and 3.8 Newton iterations a step)
-CONTACT_LINE_SEARCH = "l2"
-_SECANT = {"snes_linesearch_type": CONTACT_LINE_SEARCH, "snes_divergence_tolerance": "-1"}
-CONTACT_OPTIONS = {"tool": _SECANT, "frictional pair": _SECANT, "pair": {"snes_divergence_tolerance": "-1"}}
+#: step), l2's secant on the residual norm does not (4 iterations); once the
+#: contact states have settled the full step is taken with one residual where
+#: l2 spends three (docs/PERFORMANCE.md, the frictional billet). Between
+#: deformable bodies (pimpm.terms.pairs) PETSc's l2 where a pair has friction:
+#: at large steps bt needs more iterations and cuts to settle stick and slip
+#: (the disk sliding down its slope at 100x the explicit step: 7.3 iterations
+#: a step, 1 cut, against 5.9; Nairn's block at 1000x: 4 cuts against 1), and
+#: the full step first saved nothing there (the slope: 1-3% more iterations;
+#: the stack at 100x: 12 cuts against 9); frictionless and bonded pairs keep
+#: bt, since l2 costs two more residuals an iteration and settles them no
+#: faster (the four disks: 1.47 against 1.76 times the shared field's time,
+#: the same 274 Newton iterations; scripts/bench_contact_pairs.py). None has a
+#: divergence test: the residual at the predictor of a body resting on a tool
+#: or another body is round-off small, and the first iterates (the contact
+#: zone settling) exceed 1e4 times it; PETSc's default divergence tolerance
+#: then stops Newton (inputs/friction_onset.yaml at dt = 0.05: 4 cuts and a
+#: failed run; without it no cut and 3.8 Newton iterations a step)
+_NO_DIVERGENCE_TEST = {"snes_divergence_tolerance": "-1"}
+CONTACT_OPTIONS = {"tool": dict(_NO_DIVERGENCE_TEST, snes_linesearch_type="basic"),
+                   "frictional pair": dict(_NO_DIVERGENCE_TEST, snes_linesearch_type="l2"),
+                   "pair": _NO_DIVERGENCE_TEST}
+#: the contact kinds whose line search is pimpm.line_search.FullStepFirst,
+#: unless the input or the command line names a line search
+FULL_STEP_FIRST_KINDS = ("tool",)
+#: the full Newton step is kept when it cuts the residual norm to at most this
+#: fraction. The frictional billet (2 ranks, one run each): at mu = 0.3, 0.1,
+#: 0.25 and 0.5 keep 109, 164 and 208 of about 245 Newton steps whole, for the
+#: same Newton iterations; at mu = 0.1, 0.5 cut a step once (45 steps, 272
+#: iterations) where 0.25 and 0.1 did not (249 and 253)
+FULL_STEP_FIRST = 0.25
 
 
 def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern, coo, asymmetry="",
@@ -255,6 +273,11 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
         convergence = (test, None, None)
     else:
         raise ValueError(f"-pimpm_convergence_test {shown(test)}: expected petsc or guilkey_weiss")
+    # a line search named in the input or on the command line is taken as it is
+    named = any("snes_linesearch_type" in source for source in (command_line, solver_config["petsc"], preset_options))
+    full_step_first = None
+    if not named and set(contact) & set(FULL_STEP_FIRST_KINDS):
+        full_step_first = FULL_STEP_FIRST
     max_dofs = solver_config.get("fallback_max_dofs", "auto")
     if max_dofs == "auto":
         max_dofs = FALLBACK_MAX_DOFS[dim]
@@ -262,7 +285,8 @@ def resolve(solver_config, command_line, *, symmetric, dim, assembles_on_pattern
                       fallback=use_fallback, free_dofs=free_dofs, symmetric=symmetric and not is_matrix_free,
                       near_null_space=is_iterative and not is_matrix_free, on_pattern=on_pattern,
                       mf_operator=mf_operator, convergence=convergence, reuse_factorization=reuse,
-                      linear_predictor=linear_predictor, fallback_max_dofs=max_dofs)
+                      linear_predictor=linear_predictor, fallback_max_dofs=max_dofs,
+                      full_step_first=full_step_first)
 
 
 def _automatic(setting, dim):

@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """What a frictional platen costs: Guilkey & Weiss's billet (inputs/billet.yaml,
 0.5 cm cells, 50%) with its bonded platen and with `contact: friction` at
-mu = 0.1, 0.3 and 1 (the default regularization), whole runs under
-`mpiexec -n RANKS`, the variants alternating for --repeats rounds.
+mu = 0.1, 0.3 and 1 (the default regularization), and at mu = 0.3 with
+PETSc's l2 line search at every iteration (what contact used before
+pimpm.line_search), whole runs under `mpiexec -n RANKS`, the variants
+alternating for --repeats rounds.
 
 Prints a table (steps, step cuts, Newton iterations, median wall time of the
 whole process, ratio to the bonded run, platen force and barrelling at 50%)
@@ -26,7 +28,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 VARIANTS = {"bonded": [],
             "friction 0.1": ["bodies[1].contact=friction", "bodies[1].friction_coefficient=0.1"],
             "friction 0.3": ["bodies[1].contact=friction", "bodies[1].friction_coefficient=0.3"],
-            "friction 1": ["bodies[1].contact=friction", "bodies[1].friction_coefficient=1.0"]}
+            "friction 1": ["bodies[1].contact=friction", "bodies[1].friction_coefficient=1.0"],
+            # PETSc's l2 at every Newton iteration, the contact line search before pimpm.line_search
+            "friction 0.3, l2": ["bodies[1].contact=friction", "bodies[1].friction_coefficient=0.3",
+                                 "solver.petsc.snes_linesearch_type=l2"]}
 
 
 def run(overrides, ranks, out):

@@ -50,14 +50,26 @@ def test_options_are_defaults_then_preset_then_adjustments_then_yaml():
 
 
 def test_contact_sets_its_line_search_and_no_divergence_test_unless_the_yaml_says():
-    """Rigid tools and frictional pairs: l2; frictionless and bonded pairs:
-    the default bt (pimpm.presets.CONTACT_OPTIONS); none has a divergence test."""
-    for kinds, line_search in (((), "bt"), ({"tool"}, "l2"), ({"frictional pair"}, "l2"), ({"pair"}, "bt")):
-        options = resolve(problem={"contact": kinds}).options
-        assert options["snes_linesearch_type"] == line_search, kinds
-        assert ("snes_divergence_tolerance" in options) == bool(kinds), kinds
-    options = resolve(problem={"contact": {"pair"}}, petsc={"snes_linesearch_type": "l2"}).options
-    assert options["snes_linesearch_type"] == "l2"
+    """Rigid tools and frictional pairs: PETSc's basic line search with
+    pimpm's pre-check (the full step if it cuts the residual norm to a
+    quarter, else
+    l2's parabola: pimpm.line_search); frictionless and bonded pairs: the
+    default bt (pimpm.presets.CONTACT_OPTIONS); none has a divergence test.
+    A line search the input or the command line names is taken as it is."""
+    full = presets.FULL_STEP_FIRST
+    for kinds, line_search, full_first in (((), "bt", None), ({"tool"}, "basic", full),
+                                           ({"frictional pair"}, "l2", None), ({"pair"}, "bt", None),
+                                           ({"pair", "tool"}, "basic", full)):
+        plan = resolve(problem={"contact": kinds})
+        assert plan.options["snes_linesearch_type"] == line_search, kinds
+        assert plan.full_step_first == full_first, kinds
+        assert ("snes_divergence_tolerance" in plan.options) == bool(kinds), kinds
+    plan = resolve(problem={"contact": {"pair"}}, petsc={"snes_linesearch_type": "l2"})
+    assert plan.options["snes_linesearch_type"] == "l2" and plan.full_step_first is None
+    plan = resolve(problem={"contact": {"tool"}}, petsc={"snes_linesearch_type": "basic"})
+    assert plan.options["snes_linesearch_type"] == "basic" and plan.full_step_first is None
+    assert resolve({"snes_linesearch_type": "l2"}, problem={"contact": {"tool"}}).full_step_first is None
+    assert all(not key.startswith("pimpm_") for key in resolve(problem={"contact": {"tool"}}).options)
 
 
 def test_the_command_line_chooses_the_preset_and_pimpm_switches():

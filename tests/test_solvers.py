@@ -534,3 +534,17 @@ def test_a_lagged_solve_that_needed_many_iterations_has_the_next_system_factoriz
     context.release()
     for obj in (outer, A, b, x):
         obj.destroy()
+
+
+def test_newton_stopped_by_a_short_step_with_the_residual_still_large_has_failed(tmp_path):
+    """PETSc stops Newton when a step is shorter than snes_stol times the
+    iterate, whatever the residual; pimpm counts that as converged only if
+    the residual has fallen to 1e-4 of its start (pimpm.solver.
+    SNORM_RESIDUAL_FRACTION), and otherwise cuts the step. Here snes_stol
+    0.3 stops the billet's Newton after one or two iterations."""
+    config = coarse_billet(directory=str(tmp_path / "out"))
+    config["time"]["end_time"] = 2 * config["time"]["dt"]
+    proc = run_pimpm(None, [write_yaml(tmp_path / "billet.yaml", config), "-snes_stol", "0.3"])
+    assert "fell below snes_stol with the residual still" in proc.stdout + proc.stderr, proc.stdout + proc.stderr
+    rows = read_history(tmp_path / "out" / "history.csv")
+    assert len(rows) and np.all(rows["residual_final"] <= 1e-4 * rows["residual_initial"] + 1e-12)
