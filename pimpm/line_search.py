@@ -26,6 +26,7 @@ import weakref
 
 import numpy as np
 from mpi4py import MPI
+from petsc4py import PETSc
 
 #: l2's smallest step (PETSc's steptol): a smaller fitted step is replaced by 1/2
 LAMBDA_MIN = 1e-8
@@ -69,6 +70,8 @@ class FullStepFirst:
         self.kept = False         # do W and G hold the full step just kept and its residual?
         self.full_steps = 0       # full steps kept at once
         self.fitted = 0           # steps scaled to l2's parabola
+        # -snes_linesearch_monitor: say what was kept, as PETSc's line searches do
+        self.monitor = PETSc.Options().hasName("snes_linesearch_monitor")
         snes.setFunction(self.residual, R)
         snes.setLineSearchPreCheck(self)
 
@@ -95,6 +98,7 @@ class FullStepFirst:
         if math.isfinite(f1) and f1 <= self.threshold * f0:
             self.full_steps += 1
             self.kept = True
+            self._say(f"full step kept, fnorms = [{f1:g}, {f0:g}] at lambdas = [1., 0.]")
             return False
         self.fitted += 1
         # as l2: halve the step until its residual is finite, then fit through it, its half and 0
@@ -104,9 +108,19 @@ class FullStepFirst:
                 break
             top *= 0.5
             f1 = self.norm_at(x, y, top)
-        lam = top * l2_step(f0, self.norm_at(x, y, 0.5 * top), f1) if math.isfinite(f1) else top
+        if math.isfinite(f1):
+            f_half = self.norm_at(x, y, 0.5 * top)
+            lam = top * l2_step(f0, f_half, f1)
+            self._say(f"lambdas = [{top:g}, {0.5 * top:g}, 0.], fnorms = [{f1:g}, {f_half:g}, {f0:g}]: l2's lambda = {lam:g}")
+        else:
+            lam = top
+            self._say(f"no finite residual down to lambda = {top:g}")
         y.scale(lam)
         return True
+
+    def _say(self, text):
+        if self.monitor:
+            PETSc.Sys.Print(f"      Line search (pimpm, full step first): {text}", comm=self.R.getComm())
 
     def destroy(self):
         snes = self.snes()

@@ -53,9 +53,9 @@ def solve(residual, jacobian, x0, line_search, converge=True, **options):
     for key, value in {"snes_rtol": 1e-12, "snes_atol": 1e-14, "snes_max_it": 50, **options}.items():
         db[key] = value
     snes.setFromOptions()
+    pre = FullStepFirst(snes, form_residual, R, 0.5) if line_search == "full-first" else None
     for key in ["snes_linesearch_type", "snes_rtol", "snes_atol", "snes_max_it", *options]:
         db.delValue(key)
-    pre = FullStepFirst(snes, form_residual, R, 0.5) if line_search == "full-first" else None
     X.setArray(x0)
     snes.solve(None, X)
     assert snes.getConvergedReason() > 0 or not converge, snes.getConvergedReason()
@@ -95,3 +95,10 @@ def test_a_step_that_does_not_halve_the_residual_is_fitted_as_l2_fits_it():
     first = solve(f, df, x0, "full-first", converge=False, snes_max_it=1)
     first_l2 = solve(f, df, x0, "l2", converge=False, snes_max_it=1)
     assert first[3].fitted == 1 and abs(first[0][0] - first_l2[0][0]) < 1e-14 * abs(x0[0])
+
+
+def test_the_line_search_monitor_says_what_was_kept(capfd):
+    """-snes_linesearch_monitor: a line per Newton iteration, full step or l2's."""
+    solve(np.arctan, lambda x: 1.0 / (1.0 + x ** 2), np.array([1.5]), "full-first", snes_linesearch_monitor="")
+    out = capfd.readouterr().out
+    assert "full step kept" in out and "l2's lambda" in out, out
