@@ -245,14 +245,15 @@ class NewtonSolver:
             else:
                 self.free_dofs = FreeDofsKSP(reuse_factorization=plan.reuse_factorization)
                 ksp.setPythonContext(self.free_dofs)
+        self.line_search = None
         with scoped_options(self.options):
             self.snes.setFromOptions()
             if use_fallback or use_free_dofs:
                 self.snes.getKSP().setUp()
-        # contact: the full Newton step when it cuts the residual norm enough, else l2's fit
-        self.line_search = None
-        if plan.full_step_first is not None:
-            self.line_search = FullStepFirst(self.snes, problem.form_residual, self.R, plan.full_step_first)
+            # contact: the full Newton step when it cuts the residual norm enough, else
+            # l2's; made here, where it sees the input's -snes_linesearch_monitor too
+            if plan.full_step_first is not None:
+                self.line_search = FullStepFirst(self.snes, problem.form_residual, self.R, plan.full_step_first)
         self.destroyed = False
         _LIVE_SOLVERS.add(self)
         try:

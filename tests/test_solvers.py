@@ -548,3 +548,15 @@ def test_newton_stopped_by_a_short_step_with_the_residual_still_large_has_failed
     assert "fell below snes_stol with the residual still" in proc.stdout + proc.stderr, proc.stdout + proc.stderr
     rows = read_history(tmp_path / "out" / "history.csv")
     assert len(rows) and np.all(rows["residual_final"] <= 1e-4 * rows["residual_initial"] + 1e-12)
+
+
+def test_the_contact_line_search_monitor_follows_the_input_too(tmp_path):
+    """-snes_linesearch_monitor in the YAML's solver.petsc reaches pimpm's
+    line search of rigid tools (pimpm.line_search), not only PETSc's."""
+    config = coarse_billet(directory=str(tmp_path / "out"))
+    config["bodies"][1].update(contact="friction", friction_coefficient=0.3)
+    config["time"]["end_time"] = config["time"]["dt"]
+    config["solver"] = {"petsc": {"snes_linesearch_monitor": ""}}
+    proc = run_pimpm(None, [write_yaml(tmp_path / "billet.yaml", config)])
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "Line search (pimpm, full step first)" in proc.stdout, proc.stdout
