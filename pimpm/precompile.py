@@ -50,9 +50,9 @@ def main():
             sim = Simulation(validate(tiny(dim, shape_functions, material)), MPI.COMM_SELF)
             sim.advance(1.0)
             sim.solver.destroy()
-        for shape_functions in ("linear", "gimp"):          # F-bar's cell coupling (pimpm.kernels.fbar)
-            config = tiny(dim, shape_functions, MATERIALS[0])
-            config["materials"]["m"]["f_bar"] = True
+        for shape_functions, average in itertools.product(("linear", "gimp"), ("cells", "nodes")):
+            config = tiny(dim, shape_functions, MATERIALS[0])   # F-bar's couplings (pimpm.kernels.fbar)
+            config["materials"]["m"]["f_bar"] = average
             sim = Simulation(validate(config), MPI.COMM_SELF)
             sim.advance(1.0)
             sim.solver.destroy()

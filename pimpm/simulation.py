@@ -41,6 +41,9 @@ from .fields import BodyFields, FieldGrid
 from .terms.pairs import FieldContact
 from .transfer import particle_to_grid
 
+_NO_INT = np.zeros(0, dtype=np.int64)
+_NO_PRESENCE = np.zeros((0, 1))
+
 __all__ = ["Simulation", "SetupError", "StepFailed"]
 
 
@@ -364,20 +367,31 @@ class Simulation:
 
     @property
     def f_bar(self):
-        """Does some material average its volume change per cell (F-bar)?"""
+        """Does some material average its volume change (F-bar)?"""
         return any(m.f_bar for m in self.materials)
 
+    @property
+    def f_bar_average(self):
+        """What F-bar averages over ("cells" or "nodes", the same for every
+        averaged material), None without F-bar (pimpm.fbar)."""
+        kinds = {m.f_bar for m in self.materials if m.f_bar}
+        return kinds.pop() if kinds else None
+
     def pattern_width(self):
-        """The tangent's stencil half-width: a particle's footprint, and one
-        node more with F-bar, whose cell coupling reaches the union of the
-        footprints of a cell's particles (pimpm.kernels.fbar); with F
-        velocity fields, F times that on their virtual grid (pimpm.fields.FieldGrid)."""
-        return (self.shape.nodes_per_axis - 1 + (1 if self.f_bar else 0)) * self.fields.count
+        """The tangent's stencil half-width: a particle's footprint; with
+        F-bar on the cells one node more, whose coupling reaches the union of
+        the footprints of a cell's particles, on the nodes twice a
+        footprint, whose coupling joins the nodes of the particles that
+        reach a node (pimpm.kernels.fbar); with F velocity fields, F times
+        that on their virtual grid (pimpm.fields.FieldGrid)."""
+        reach = self.shape.nodes_per_axis - 1
+        extra = {None: 0, "cells": 1, "nodes": reach}[self.f_bar_average]
+        return (reach + extra) * self.fields.count
 
     def tangent_pattern(self, node_index, active, cells=None, pairs=None):
         """The couplings of this step's tangent (pimpm.kernels.pattern);
-        ``cells``: F-bar's cells (pimpm.fbar.AveragedCells), whose particles
-        couple every node they reach; ``pairs`` (k, 2): ghosted-local field
+        ``cells``: F-bar's averaging (pimpm.fbar.AveragedCells, whose
+        particles couple every node they reach, or AveragedNodes); ``pairs`` (k, 2): ghosted-local field
         nodes that the contact pairs couple (pimpm.terms.pairs)."""
         grid = self.solve_grid
         width = self.pattern_width()
@@ -388,9 +402,16 @@ class Simulation:
             on = np.zeros(extra.shape, dtype=np.bool_)
             on[:, :2] = True
             node_index, active = np.vstack([node_index, extra]), np.vstack([active, on])
+        if cells.kind == "nodes":
+            order, start = _NO_INT, _NO_INT
+            centres, presence, half = cells.centres, cells.presence, cells.half
+        else:
+            order, start = cells.order, cells.start
+            centres, presence, half = _NO_INT, _NO_PRESENCE, 0
+        gy = int(grid.ghost_shape[1]) if grid.dim > 1 else 1
         indptr, indices, slots = kernel_pattern.block_pattern(
             node_index, active, grid.ghost_ijk, grid.dim, width, grid.owned_local_nodes,
-            grid.n_local_nodes, int(grid.ghost_shape[0]), int(grid.ghost_shape[1]), cells.order, cells.start)
+            grid.n_local_nodes, int(grid.ghost_shape[0]), gy, order, start, centres, presence, half)
         scalar_indptr, scalar_indices = kernel_pattern.scalar_csr(indptr, indices, grid.dim)
         return TangentPattern(width, indptr, indices, slots,
                               scalar_indptr.astype(PETSc.IntType), scalar_indices.astype(PETSc.IntType))

@@ -19,7 +19,7 @@ Writes docs/data/convergence_study.json (or --json PATH), merged with what the
 file already holds (entries for other shape functions or studies are kept).
 
     mpiexec -n 2 python scripts/convergence_study.py [--column] [--billet]
-        [--shapes linear gimp bspline] [--sizes 1 0.5 0.25] [--f-bar]
+        [--shapes linear gimp bspline] [--sizes 1 0.5 0.25] [--f-bar [cells|nodes]]
 """
 import argparse
 import json
@@ -72,10 +72,11 @@ def column_study(shapes, cells=(10, 20, 40, 80)):
 def billet(h, travel_per_step, shape, f_bar=False):
     """coarse_billet at cell size h (cm): the grid and bodies keep their
     size in cm, cells scale; the platen moves ``travel_per_step`` cells per step;
-    ``f_bar``: every material with F-bar (pimpm/fbar.py)."""
+    ``f_bar``: every material with F-bar (pimpm/fbar.py), False or what
+    it averages over ("cells", "nodes")."""
     raw = coarse_billet("quasi_static")
     for material in raw["materials"].values():
-        material["f_bar"] = bool(f_bar)
+        material["f_bar"] = f_bar
     scale = int(round(1.0 / h))
     raw["grid"]["cells"] = [36 * scale, 22 * scale]
     raw["grid"]["shape_functions"] = shape
@@ -104,7 +105,7 @@ class AtMarks(Observer):
 def billet_study(shapes, sizes, f_bar=False):
     out = {}
     for shape in shapes:
-        label = f"{shape}, f_bar" if f_bar else shape
+        label = {False: shape, "cells": f"{shape}, f_bar"}.get(f_bar, f"{shape}, f_bar {f_bar}")
         runs = {}
         for h in sizes:
             for travel in (0.5, 0.25):
@@ -154,7 +155,9 @@ def main():
     ap.add_argument("--billet", action="store_true")
     ap.add_argument("--shapes", nargs="+", default=["linear", "gimp", "bspline"])
     ap.add_argument("--sizes", type=float, nargs="+", default=[1.0, 0.5, 0.25])
-    ap.add_argument("--f-bar", action="store_true", help="the billet with F-bar (entries 'SHAPE, f_bar')")
+    ap.add_argument("--f-bar", nargs="?", const="cells", default=False, choices=["cells", "nodes"],
+                    help="the billet with F-bar on the cells (entries 'SHAPE, f_bar') or the nodes "
+                         "('SHAPE, f_bar nodes')")
     ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "convergence_study.json"))
     args = ap.parse_args()
     if not (args.column or args.billet):

@@ -87,15 +87,15 @@ def main():
     ap.add_argument("--sizes", type=float, nargs="+", default=[2.0, 1.0, 0.5])
     ap.add_argument("--shape", default=None, choices=["linear", "gimp", "bspline"],
                     help="shape functions (default: the input's, linear)")
-    ap.add_argument("--f-bar", choices=["on", "off"], default=None,
-                    help="F-bar on the steel (default: the input's)")
+    ap.add_argument("--f-bar", choices=["on", "off", "cells", "nodes"], default=None,
+                    help="F-bar on the steel: on (= cells), off, or what it averages over (default: the input's)")
     ap.add_argument("--no-docs", action="store_true")
     args = ap.parse_args()
     results = []
     with tempfile.TemporaryDirectory() as workdir:
         for h in args.sizes:
-            results.append(run(h, args.ranks, workdir, args.shape,
-                               None if args.f_bar is None else args.f_bar == "on"))
+            f_bar = {None: None, "on": True, "off": False}.get(args.f_bar, args.f_bar)
+            results.append(run(h, args.ranks, workdir, args.shape, f_bar))
     failed = [r for r in results if r.get("failed")]
     results = [r for r in results if not r.get("failed")]
     for r in failed:

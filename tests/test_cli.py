@@ -339,9 +339,12 @@ BAD_INPUTS = {
             "model": "neo_hookean", "shear_modulus": -5.0, "bulk_modulus": 800.0,
             "density": 10.0})),
         ["materials.elastic.shear_modulus", "-5.0", "expected a positive number"]),
-    "f_bar not a boolean": (
+    "f_bar not a boolean or an average": (
         None, yaml_case(set_key(["materials", "elastic", "f_bar"], "sometimes")),
-        ["materials.elastic.f_bar", "'sometimes'", "true or false"]),
+        ["materials.elastic.f_bar", "'sometimes'", "true, false, cells or nodes"]),
+    "f_bar_blend without f_bar": (
+        None, yaml_case(set_key(["materials", "elastic", "f_bar_blend"], 0.1)),
+        ["materials.elastic.f_bar_blend = 0.1", "no f_bar_blend while materials.elastic.f_bar is false"]),
     "f_bar in plane stress": (
         None, yaml_case(lambda cfg: (cfg["materials"]["elastic"].update(f_bar=True),
                                      cfg.update(kinematics="plane_stress"))),

@@ -62,6 +62,33 @@ def prepared(*args, **kwargs):
     return sim, state
 
 
+def assembled(problem, ev, pattern, shape):
+    """The step's assembled tangent (its COO values on ``pattern``) as a dense matrix."""
+    compiled = np.zeros(shape)
+    rows = np.repeat(np.arange(len(pattern.scalar_indptr) - 1), np.diff(pattern.scalar_indptr))
+    np.add.at(compiled, (rows, pattern.scalar_indices), problem._tangent_values(ev))
+    return compiled
+
+
+def check_product_and_diagonal(st, ev, dense, coupling_product, coupling_diagonal):
+    """The matrix-free product and diagonal (the particles' own part, then
+    ``coupling_product(x, out)`` and ``coupling_diagonal(out)``, which must
+    report nothing outside their boxes) equal the dense tangent's."""
+    n_nodes, dim = ev.force.shape
+    radius = st.radius if st.radius is not None else np.zeros(0)
+    arguments = (st.kinematics.kernel_code, tuple(range(dim)), tuple(range(st.S.shape[1])), st.node_index,
+                 st.active, st.S, st.G, radius, ev.F_inc, ev.tangent, ev.hoop)
+    x = RNG.standard_normal((n_nodes, dim))
+    product = np.empty_like(x)
+    particle_step.tangent_product(*arguments, x, product)
+    assert coupling_product(x, product) == 0
+    assert relative(product.reshape(-1), dense @ x.reshape(-1)) < 1e-10
+    diagonal = np.empty_like(x)
+    particle_step.tangent_diagonal(*arguments, diagonal)
+    assert coupling_diagonal(diagonal) == 0
+    assert relative(diagonal.reshape(-1), np.diag(dense)) < 1e-10
+
+
 CASES = [("plane_strain", "gimp", "j2_finite_strain", False), ("plane_strain", "linear", "neo_hookean", False),
          ("plane_strain", "bspline", "j2_small_strain", False),
          ("axisymmetric", "linear", "j2_finite_strain", False),
@@ -88,7 +115,6 @@ def test_f_bar_kernels_equal_the_numpy_reference(kinematics, shape, model, three
     force = RK.scatter_pairs(st.node_index, pairs, grid.n_local_nodes)
     dense = RK.dense_tangent(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius, st.node_index,
                              grid.n_local_nodes)
-    n, nn = st.S.shape
     dense += RF.fbar_tangent(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius, cells.cell,
                              st.node_index, grid.n_local_nodes)
     # compiled
@@ -100,34 +126,86 @@ def test_f_bar_kernels_equal_the_numpy_reference(kinematics, shape, model, three
     assert relative(ev.sigma, sigma) < 1e-10
     assert relative(ev.force, force) < 1e-10
     assert sim.problem.symmetric is False and sim.problem.symmetric_density is False
-    values = sim.problem._tangent_values(ev)
     pattern = st.pattern
-    compiled = np.zeros_like(dense)
-    rows = np.repeat(np.arange(len(pattern.scalar_indptr) - 1), np.diff(pattern.scalar_indptr))
-    np.add.at(compiled, (rows, pattern.scalar_indices), values)
-    assert relative(compiled, dense) < 1e-10
+    assert relative(assembled(sim.problem, ev, pattern, dense.shape), dense) < 1e-10
     # the matrix-free product and diagonal of the same tangent
     radius = st.radius if st.radius is not None else np.zeros(0)
-    arguments = (st.kinematics.kernel_code, tuple(range(dim)), tuple(range(nn)), st.node_index,
-                 st.active, st.S, st.G, radius, ev.F_inc, ev.tangent, ev.hoop)
     cell_arguments = (st.kinematics.kernel_code, tuple(range(dim)), fbar.cell_box_side(st), cells.order,
                       cells.start, st.node_index, st.active, st.S, st.G, radius, ev.F_inc, ev.fbar_q,
                       ev.fbar_weight, grid.ghost_ijk)
-    x = RNG.standard_normal((grid.n_local_nodes, dim))
-    product = np.empty_like(x)
-    particle_step.tangent_product(*arguments, x, product)
-    assert fbar_kernels.cell_product(*cell_arguments, x, product) == 0
-    assert relative(product.reshape(-1), dense @ x.reshape(-1)) < 1e-10
-    diagonal = np.empty_like(x)
-    particle_step.tangent_diagonal(*arguments, diagonal)
-    assert fbar_kernels.cell_diagonal(*cell_arguments, diagonal) == 0
-    assert relative(diagonal.reshape(-1), np.diag(dense)) < 1e-10
+    check_product_and_diagonal(st, ev, dense, lambda x, out: fbar_kernels.cell_product(*cell_arguments, x, out),
+                               lambda out: fbar_kernels.cell_diagonal(*cell_arguments, out))
     # the pattern holds every coupling of a cell's particles (one node wider
     # per axis than a particle's footprint with GIMP and B-splines)
     coupled = RK.expected_couplings(np.split(cells.order, cells.start[1:-1]), st.node_index, st.active,
                                     grid.owned_local_nodes, grid.n_local_nodes)
     assert np.array_equal(RK.pattern_couplings(pattern, grid.n_local_nodes), coupled)
     assert pattern.width == sim.shape.nodes_per_axis
+
+
+NODAL_CASES = [("plane_strain", "gimp", "j2_finite_strain", False), ("plane_strain", "bspline", "j2_small_strain", False),
+               ("axisymmetric", "linear", "j2_finite_strain", False),
+               ("axisymmetric", "gimp", "neo_hookean_compressible", False), ("3d", "gimp", "neo_hookean", True),
+               ("3d", "linear", "hencky", True)]
+
+
+@pytest.mark.parametrize("kinematics,shape,model,three_d", NODAL_CASES)
+def test_nodal_f_bar_kernels_equal_the_numpy_reference(kinematics, shape, model, three_d):
+    """F-bar on the nodes (f_bar: nodes): J averaged onto the nodes and back,
+    blended with the particle's own (f_bar_blend), the stress, the force, the
+    assembled tangent with its node coupling, the matrix-free product and
+    diagonal, and the pattern, against tests/reference/fbar.py."""
+    sim, st = prepared(kinematics, shape, model, three_d, f_bar="nodes")
+    grid, dim = sim.grid, sim.dim
+    cells = st.cells
+    assert cells.kind == "nodes" and cells.count == len(st.F_n)
+    alpha = 1.0 - sim.config["materials"]["m"]["f_bar_blend"]
+    assert alpha == pytest.approx(0.9)                             # the default blend
+    on = np.ones(len(st.F_n), dtype=bool)
+    n_nodes = grid.n_local_nodes
+    u = 0.01 * RNG.standard_normal((n_nodes, dim))
+    grad = RK.gradient(st.node_index, st.G, u)
+    F_inc = RK.deformation_increment(st.kinematics, grad, st.radius,
+                                     lambda: grid_to_particle(st.node_index, st.S, u))
+    F_bar = RF.nodal_increment(st.kinematics, F_inc, st.volume_n, st.S, st.node_index, on, alpha, n_nodes)
+    F = np.matmul(F_bar, st.F_n)
+    sigma, c, _ = update_stress(st.material_groups, st.kinematics, F, st.history, True, F_bar.copy())
+    pairs = RK.internal_force_pairs(st.kinematics, sigma, F_inc, st.G, st.S, st.volume_n, st.radius)
+    force = RK.scatter_pairs(st.node_index, pairs, n_nodes)
+    dense = RK.dense_tangent(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius, st.node_index,
+                             n_nodes)
+    dense += RF.nodal_tangent(st.kinematics, sigma, c, F_inc, st.G, st.S, st.volume_n, st.radius, on, alpha,
+                              st.node_index, n_nodes)
+    J_bar, _, _ = RF.nodal_mean(F_inc, st.volume_n, st.S, st.node_index, on, n_nodes)
+    assert np.ptp(J_bar) > 1e-4 and np.max(np.abs(J_bar - tensors.det(F_inc))) > 1e-4
+    ev = ParticleEvaluation(st, n_nodes, dim)
+    ev.evaluate(st, u, dim)
+    assert ev.inverted == 0
+    assert relative(ev.jbar, J_bar) < 1e-13
+    assert relative(ev.F_inc, F_inc) < 1e-12
+    assert relative(ev.F, F) < 1e-12
+    assert relative(ev.sigma, sigma) < 1e-10
+    assert relative(ev.force, force) < 1e-10
+    assert sim.problem.symmetric is False
+    pattern = st.pattern
+    assert relative(assembled(sim.problem, ev, pattern, dense.shape), dense) < 1e-10
+    R, D = ev.node_coupling(st)
+    node_arguments = (cells.half, cells.centres, R, D, grid.ghost_ijk, *cells.ghost_shape())
+    check_product_and_diagonal(st, ev, dense, lambda x, out: fbar_kernels.node_product(*node_arguments, x, out),
+                               lambda out: fbar_kernels.node_diagonal(*node_arguments, out))
+    # the pattern: every node a particle reaches with the nodes of the particles that reach its nodes
+    reaching = [np.flatnonzero(np.any((st.node_index == node) & (st.S > 0) & st.active, axis=1))
+                for node in range(n_nodes)]
+    coupled = RK.expected_couplings([g for g in reaching if len(g)], st.node_index, st.active,
+                                    grid.owned_local_nodes, n_nodes)
+    coupled |= RK.pattern_couplings(_standard_pattern(sim, st), n_nodes)
+    assert np.array_equal(RK.pattern_couplings(pattern, n_nodes), coupled)
+    assert pattern.width == 2 * (sim.shape.nodes_per_axis - 1)
+
+
+def _standard_pattern(sim, st):
+    """The pattern of the particles' own couplings (no F-bar)."""
+    return sim.tangent_pattern(st.node_index, st.active)
 
 
 def test_every_particle_of_a_cell_changes_volume_alike():
@@ -161,10 +239,11 @@ def test_f_bar_is_the_standard_formulation_with_one_particle_per_cell():
     assert np.max(np.abs(out[0][1])) > 1e4                     # and it is stressed
 
 
+@pytest.mark.parametrize("average", ["cells", "nodes"])
 @pytest.mark.parametrize("kinematics,three_d", [("plane_strain", False), ("3d", True)])
-def test_a_homogeneous_increment_is_not_changed(kinematics, three_d):
+def test_a_homogeneous_increment_is_not_changed(kinematics, three_d, average):
     """u affine in x: every particle has the same J_inc, so F_bar = F."""
-    sim, st = prepared(kinematics, "gimp", "neo_hookean", three_d)
+    sim, st = prepared(kinematics, "gimp", "neo_hookean", three_d, f_bar=average)
     dim = sim.dim
     A = 0.01 * RNG.standard_normal((dim, dim))
     u = (sim.grid.lower + sim.grid.ghost_ijk * sim.grid.spacing) @ A.T      # ghosted-local nodes
@@ -197,7 +276,14 @@ def test_explicit_step_averages_the_volume_change_per_cell():
 
 
 @pytest.mark.parametrize("edit,expected", [
-    (lambda raw: raw["materials"]["m"].update(f_bar="yes"), "materials.m.f_bar"),
+    (lambda raw: raw["materials"]["m"].update(f_bar="yes"), "materials.m.f_bar = 'yes': expected true, false, cells or nodes"),
+    (lambda raw: raw["materials"]["m"].update(f_bar=False, f_bar_blend=0.1),
+     "materials.m.f_bar_blend = 0.1: expected no f_bar_blend while materials.m.f_bar is false"),
+    (lambda raw: raw["materials"]["m"].update(f_bar="nodes", f_bar_blend=1.0),
+     "materials.m.f_bar_blend = 1.0: expected a number from 0 to less than 1"),
+    (lambda raw: raw["materials"]["m"].update(f_bar="nodes", f_bar_blend="some"), "materials.m.f_bar_blend"),
+    (lambda raw: raw["materials"].update(n=dict(raw["materials"]["m"], f_bar="nodes")),
+     r"materials.n.f_bar = nodes: expected cells, as materials.m.f_bar \(the materials of a run average"),
     (lambda raw: raw.update(kinematics="plane_stress"), "plane_stress"),
     (lambda raw: raw["time"].update(formulation="momentum"), "momentum"),
 ])
@@ -208,6 +294,27 @@ def test_f_bar_input_is_checked(edit, expected):
         validate(raw)
 
 
+def test_f_bar_true_averages_over_cells_and_nodes_blend_a_little():
+    raw = raw_input("plane_strain", "gimp", "neo_hookean")
+    assert validate(raw)["materials"]["m"]["f_bar"] == "cells"
+    assert validate(raw)["materials"]["m"]["f_bar_blend"] == 0.0
+    raw["materials"]["m"]["f_bar"] = "nodes"
+    sim = Simulation(validate(raw), MPI.COMM_SELF)
+    assert sim.f_bar_average == "nodes" and sim.materials[0].f_bar_blend == 0.1
+    assert sim.material_table().f_bar_alpha[0] == 0.9
+    assert sim.pattern_width() == 2 * (sim.shape.nodes_per_axis - 1)
+
+
+@pytest.mark.parametrize("model", ["j2_finite_strain", "neo_hookean"])
+def test_f_bar_is_off_by_default_and_a_blend_needs_it(model):
+    raw = raw_input("axisymmetric", "gimp", model)
+    del raw["materials"]["m"]["f_bar"]
+    material = validate(raw)["materials"]["m"]
+    assert material["f_bar"] is False and "f_bar_blend" not in material
+    raw["materials"]["m"].update(f_bar="nodes", f_bar_blend=0.2)
+    assert validate(raw)["materials"]["m"]["f_bar_blend"] == 0.2
+
+
 def test_f_bar_is_off_unless_asked():
     raw = raw_input("plane_strain", "gimp", "neo_hookean")
     del raw["materials"]["m"]["f_bar"]
@@ -215,15 +322,17 @@ def test_f_bar_is_off_unless_asked():
     assert not sim.f_bar and sim.pattern_width() == sim.shape.nodes_per_axis - 1
 
 
-def test_f_bar_runs_the_same_on_1_2_and_3_ranks(tmp_path):
+@pytest.mark.parametrize("average", ["cells", "nodes"])
+def test_f_bar_runs_the_same_on_1_2_and_3_ranks(tmp_path, average):
     """The bonded upsetting at 2 mm with F-bar, to 20% reduction (each cell's
-    particles are on one rank, so the average is the same on any number)."""
+    particles are on one rank, so the cells' average is the same on any
+    number; the nodes' sums run over the ranks)."""
     from helpers import MPIEXEC, coarse_upsetting, run_on_ranks
     if MPIEXEC is None:
         pytest.skip("mpiexec not found")
     raw = coarse_upsetting()
     raw["grid"]["shape_functions"] = "gimp"
-    raw["materials"]["steel"]["f_bar"] = True
+    raw["materials"]["steel"]["f_bar"] = average
     raw["time"]["end_time"] = 3.0e-3
     raw["output"] = {"directory": "out", "every": 1000}
     runs = run_on_ranks(tmp_path, raw, (1, 2, 3), timeout=300)
@@ -265,3 +374,65 @@ def test_f_bar_removes_the_pressure_scatter_of_the_bonded_upsetting(shape):
     assert 0.95 < J_min and J_max < 1.02, spreads
     assert spreads[False][1] < 0.93 and spreads[False][2] > 1.04, spreads
     assert off < 0.5 * spreads[False][0], spreads
+
+
+def test_explicit_nodal_f_bar_runs_the_same_on_1_2_and_3_ranks(tmp_path):
+    """The explicit step with J averaged on the nodes (sums over every rank)
+    on a body landing on the floor: 1, 2 and 3 ranks agree, and each
+    particle's new J is the blend of the reference's nodal average."""
+    from helpers import MPIEXEC, run_on_ranks
+    if MPIEXEC is None:
+        pytest.skip("mpiexec not found")
+    raw = raw_input("plane_strain", "gimp", "neo_hookean", f_bar="nodes")
+    raw["time"] = {"integrator": "explicit", "end_time": 2.0e-4, "gravity": [0.0, -981.0]}
+    raw["grid"]["boundary"] = {"ymin": "fixed"}
+    raw["bodies"][0]["geometry"]["lower"] = [0.5, 0.0]
+    raw["bodies"][0]["velocity"] = [0.5, -0.5]
+    raw["output"] = {"directory": "out", "every": 1000}
+    runs = run_on_ranks(tmp_path, raw, (1, 2, 3), timeout=300)
+    p1, t1, _ = runs[0]
+    assert t1 == pytest.approx(2.0e-4, rel=1e-12)
+    for p, t, _ in runs[1:]:
+        assert np.array_equal(p["id"], p1["id"])
+        np.testing.assert_allclose(p["position"], p1["position"], rtol=0, atol=1e-8 * 5.0)
+        np.testing.assert_allclose(p["J"], p1["J"], rtol=0, atol=1e-8)
+    assert np.ptp(p1["J"]) > 1e-6
+
+
+def test_explicit_step_blends_the_nodal_average():
+    """One explicit step with f_bar: nodes: the J_bar the kernel receives is
+    the numpy reference's nodal average of the step's increments, and the
+    new F has det F_new / det F_old = J_bar^alpha J_inc^(1 - alpha)."""
+    raw = raw_input("plane_strain", "gimp", "neo_hookean", f_bar="nodes")
+    raw["time"] = {"integrator": "explicit", "end_time": 1.0, "gravity": [0.0, -981.0]}
+    raw["grid"]["boundary"] = {"ymin": "fixed"}
+    raw["bodies"][0]["geometry"]["lower"] = [0.5, 0.0]
+    raw["bodies"][0]["velocity"] = [0.5, -0.5]
+    sim = Simulation(validate(raw), MPI.COMM_SELF)
+    for _ in range(3):
+        sim.advance(0.5 * sim.stable_time_step())
+    captured = {}
+    original = particle_step.evaluate_particles
+
+    def spy(*args):
+        captured["args"] = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+        return original(*args)
+    F0 = sim.particles["F"].copy()
+    particle_step.evaluate_particles = spy
+    try:
+        sim.advance(0.5 * sim.stable_time_step())
+    finally:
+        particle_step.evaluate_particles = original
+    args = captured["args"]
+    u, node_index, S, G, volume, jbar = args[3], args[4], args[6], args[7], args[10], args[29]
+    grad = RK.gradient(node_index, G, u)
+    F_inc = RK.deformation_increment(sim.kinematics, grad, None, None)
+    on = np.ones(len(F0), dtype=bool)
+    J_bar, _, _ = RF.nodal_mean(F_inc, volume, S, node_index, on, len(u))
+    assert relative(jbar, J_bar) < 1e-13 and np.ptp(J_bar) > 1e-8
+    alpha = sim.material_table().f_bar_alpha[0]
+    assert alpha == pytest.approx(0.9)
+    J_new = tensors.det(sim.particles["F"]) / tensors.det(F0)
+    expected = J_bar ** alpha * tensors.det(F_inc) ** (1.0 - alpha)
+    assert np.max(np.abs(J_new - expected)) < 1e-13
+    assert np.max(np.abs(J_new - tensors.det(F_inc))) > 1e-9          # the average did change it

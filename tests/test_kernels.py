@@ -254,7 +254,7 @@ def test_a_table_of_several_models_dispatches_each_particle_to_its_own():
         st.G[metal], np.zeros(0), st.F_n[metal], st.volume_n[metal], table.only_model, table.models,
         table.params, table.material_of, st.history_packed[metal][:, :table.width], True, False,
         np.zeros(0, dtype=np.int64), 0, out[0], out[1], out[2], h_out, np.empty((sim.grid.n_local_nodes, 2)),
-        np.empty((len(metal), 2, 2, 2, 2)), np.empty((0, 9)), np.empty((0, 3, 3)), np.empty(0))
+        np.empty((len(metal), 2, 2, 2, 2)), np.empty((0, 9)), np.empty((0, 3, 3)), np.empty(0), np.zeros(0), table.f_bar_alpha)
     assert np.array_equal(out[2], mixed.sigma[metal])
 
 

@@ -45,7 +45,12 @@ pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
     (3, "quasi_static", "2d", "gimp", "j2", "fbar"), (2, "newmark", "2d", "bspline", "j2finite", "fbar"), (2, "hht", "2d", "gimp", "elastic", "axisymmetric fbar"),
     (1, "quasi_static", "2d", "linear", "j2finite", "axisymmetric fbar"),
     (2, "newmark", "3d", "gimp", "elastic", "fbar"), (3, "quasi_static", "3d", "linear", "j2finite", "fbar"),
-    (2, "backward_euler", "2d", "gimp", "elastic", "onecell fbar")])
+    (2, "backward_euler", "2d", "gimp", "elastic", "onecell fbar"),
+    # F-bar on the nodes: the node coupling, summed over the ranks (2x2 process grid included)
+    (1, "quasi_static", "2d", "gimp", "j2finite", "fbarnodes"), (3, "quasi_static", "2d", "gimp", "j2", "fbarnodes"),
+    (4, "quasi_static", "2d", "linear", "j2finite", "axisymmetric fbarnodes"),
+    (2, "hht", "2d", "bspline", "elastic", "axisymmetric fbarnodes"),
+    (2, "newmark", "3d", "gimp", "elastic", "fbarnodes"), (3, "quasi_static", "3d", "linear", "j2finite", "fbarnodes")])
 def test_assembled_jacobian_matches_finite_differences(nranks, integrator, dim, shape, material,
                                                        kinematics):
     args = [f"{HERE}/mpi/jacobian_check.py", integrator, dim, shape, material]

@@ -38,7 +38,7 @@ from .functions import _validate_functions
 from .loads import _validate_loads
 from .pairs import _validate_contact_pairs, check_contact_pairs
 from .checks import _MISSING, ROOT, ConfigError, _enum, _fail, _Section
-from .schema import KINEMATICS, TOP_KEYS
+from .schema import DEFAULT_F_BAR, DEFAULT_F_BAR_BLEND, KINEMATICS, TOP_KEYS
 from .sections import _validate_grid, _validate_output, _validate_parallel, _validate_solver, _validate_time
 from .yaml_input import _line_for, parse_text, read_yaml
 
@@ -93,6 +93,7 @@ def validate(raw, source_name=None, base_dir=None):
     config = {"title": title, "dim": dim, "functions": functions, "grid": grid, "kinematics": kin,
               "materials": materials, "bodies": bodies, "contact": pairs, "loads": loads, "time": time,
               "solver": solver, "parallel": parallel, "output": output}
+    resolve_f_bar(config)
     check_derived(config)
     _check_contact(config)
     check_contact_pairs(config)
@@ -100,21 +101,47 @@ def validate(raw, source_name=None, base_dir=None):
     return config
 
 
+def resolve_f_bar(config):
+    """Each material's ``f_bar`` where it does not say (None): DEFAULT_F_BAR;
+    and its ``f_bar_blend`` where it does not say (DEFAULT_F_BAR_BLEND of
+    its average). A blend given with F-bar off is refused."""
+    for name, material in config["materials"].items():
+        if material.get("f_bar") is None:
+            material["f_bar"] = DEFAULT_F_BAR
+        if material["f_bar"]:
+            if material.get("f_bar_blend") is None:
+                material["f_bar_blend"] = DEFAULT_F_BAR_BLEND[material["f_bar"]]
+        elif material.get("f_bar_blend") is not None:
+            path = f"materials.{name}.f_bar_blend"
+            raise ConfigError(f"{path} = {material['f_bar_blend']:g}: expected no f_bar_blend while "
+                              f"materials.{name}.f_bar is false (f_bar: cells or nodes averages the "
+                              "volume change)", path=path)
+        else:
+            material.pop("f_bar_blend", None)
+
+
 def _check_f_bar(config):
     """F-bar (pimpm.kernels.fbar) averages the volume change of each cell:
     plane stress has no volumetric constraint to lock (the thickness
     adjusts), and the momentum formulation's tangent keeps the DMDA's
-    stencil, which the cell coupling outgrows."""
+    stencil, which the cell coupling outgrows. Every averaged material of a
+    run averages the same way."""
+    averages = {}
     for name, material in config["materials"].items():
         if not material.get("f_bar"):
             continue
         path = f"materials.{name}.f_bar"
+        averages.setdefault(material["f_bar"], name)
+        if len(averages) > 1:
+            (kind, first), = [(k, v) for k, v in averages.items() if k != material["f_bar"]]
+            raise ConfigError(f"{path} = {material['f_bar']}: expected {kind}, as materials.{first}.f_bar "
+                              "(the materials of a run average their volume change the same way)", path=path)
         if config["kinematics"] == "plane_stress":
-            raise ConfigError(f"{path} = true: expected false with kinematics: plane_stress (plane stress "
+            raise ConfigError(f"{path} = {material['f_bar']}: expected false with kinematics: plane_stress (plane stress "
                               "does not lock volumetrically: the thickness stretch takes up the volume "
                               "change)", path=path)
         if config["time"].get("formulation") == "momentum":
-            raise ConfigError(f"{path} = true: expected false with time.formulation: momentum (F-bar "
+            raise ConfigError(f"{path} = {material['f_bar']}: expected false with time.formulation: momentum (F-bar "
                               "runs in the velocity formulation)", path=path)
 
 

@@ -13,7 +13,17 @@ from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _f
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
     CONTACT_GEOMETRIES, CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
-    MODEL_PARAMETER_KEYS, RIGID_ONLY_GEOMETRIES, DEFAULT_F_BAR)
+    MODEL_PARAMETER_KEYS, RIGID_ONLY_GEOMETRIES, F_BAR_AVERAGES)
+
+
+def _f_bar(value, path):
+    """``f_bar``: false, true (the first of F_BAR_AVERAGES) or an average's
+    name; returns False or the average's name."""
+    if isinstance(value, str) and value in F_BAR_AVERAGES:
+        return value
+    if isinstance(value, bool):
+        return F_BAR_AVERAGES[0] if value else False
+    _fail(path, value, "true, false, " + " or ".join(F_BAR_AVERAGES))
 
 
 def _validate_material(value, path):
@@ -23,7 +33,15 @@ def _validate_material(value, path):
     density = _positive(sec.required("density", "a positive number"), sec.sub("density"))
     out = {"model": model, "density": density}
     f_bar = sec.optional("f_bar")
-    out["f_bar"] = DEFAULT_F_BAR if f_bar is _MISSING else _bool(f_bar, sec.sub("f_bar"))
+    # None: not given, decided with the kinematics (pimpm.config.resolve_f_bar)
+    out["f_bar"] = None if f_bar is _MISSING else _f_bar(f_bar, sec.sub("f_bar"))
+    blend = sec.optional("f_bar_blend")
+    out["f_bar_blend"] = None
+    if blend is not _MISSING:
+        expected = "a number from 0 to less than 1"
+        out["f_bar_blend"] = _float(blend, sec.sub("f_bar_blend"), expected)
+        if not 0.0 <= out["f_bar_blend"] < 1.0:
+            _fail(sec.sub("f_bar_blend"), blend, expected)
 
     given = [k for k in ELASTIC_KEYS if sec.has(k)]
     vals = {}

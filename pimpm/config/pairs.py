@@ -68,7 +68,7 @@ def check_contact_pairs(config):
                           "matrix does not hold)", path="contact")
     for name, material in config["materials"].items():
         if material.get("f_bar"):
-            raise ConfigError(f"materials.{name}.f_bar = true: expected false in a run with contact pairs "
+            raise ConfigError(f"materials.{name}.f_bar = {material['f_bar']}: expected false in a run with contact pairs "
                               "(F-bar's cell averages would mix the bodies that meet in a cell)",
                               path=f"materials.{name}.f_bar")
     for i, body in enumerate(config["bodies"]):

@@ -39,10 +39,22 @@ DEFAULT_WEAK_NODE_FRACTION = 0.05
 ELASTIC_KEYS = ("shear_modulus", "bulk_modulus", "youngs_modulus", "poisson_ratio")
 #: parameters of all models, in registry order (each model declares its own)
 MODEL_PARAMETER_KEYS = tuple(dict.fromkeys(k for m in MODELS.values() for k in m.parameters))
-MATERIAL_KEYS = ("model", "density", "f_bar") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
-#: F-bar (pimpm.kernels.fbar) where a material does not say: measured in docs/VALIDATION.md
-#: ("Volumetric locking and F-bar")
+MATERIAL_KEYS = ("model", "density", "f_bar", "f_bar_blend") + ELASTIC_KEYS + MODEL_PARAMETER_KEYS
+#: F-bar (pimpm.fbar) where a material does not say: off, measured in
+#: docs/VALIDATION.md ("Volumetric locking and F-bar"). Averaged on the nodes it
+#: removes the pressure scatter of the plastic upsetting and its loads settle
+#: sooner under refinement, but on the 1 mm grid its frictional loads fall below
+#: the frictionless one (too soft), it costs 2-3x in 2D and 4.5x in 3D at 1 mm, and
+#: its 3D tangent would not fit in memory at 0.5 mm
 DEFAULT_F_BAR = False
+#: what F-bar averages the volume change over (pimpm.fbar): the particles of a
+#: cell, or the nodes' smooth average; ``f_bar: true`` means the first
+F_BAR_AVERAGES = ("cells", "nodes")
+#: the particle's own share in the volume change its material sees with F-bar
+#: (det F_bar = J_bar^(1 - blend) J^blend) where a material does not say, per
+#: average: on the nodes the pure average leaves the particles' own volume
+#: changes free and Newton wanders (docs/VALIDATION.md, "Volumetric locking and F-bar")
+DEFAULT_F_BAR_BLEND = {"cells": 0.0, "nodes": 0.1}
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "function", "constrain", "contact", "friction_coefficient",
              "contact_stiffness", "slip_tolerance", "tangential_stiffness")

@@ -13,6 +13,7 @@ Prescribed dofs are eliminated symmetrically: their rows are
 ``constraint_scale (u - u_prescribed)``.
 """
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import coo, faults, fbar, interrupt
@@ -66,29 +67,52 @@ class ParticleEvaluation:
         self.tangent = np.empty((n,) + (dim,) * 4)
         axisymmetric = state.kinematics.kernel_code == particle_step.AXISYMMETRIC
         self.hoop = np.empty((n if axisymmetric else 0, 2 * dim * dim + 1))
-        averaged = state.cells is not None and state.cells.count > 0
+        averaged = state.cells is not None and state.cells.count > 0     # on this rank
         self.fbar_q = np.empty((n if averaged else 0, 3, 3))          # F-bar: v Q per particle
         self.fbar_weight = np.empty(n if averaged else 0)             # F-bar: v / V_cell
         self.inverted = 0
         self.unconverged = 0          # plane stress: particles whose thickness solve failed
+        self.jbar = _NO_JBAR          # F-bar on the nodes: each particle's J_bar
+        self._coupling = None         # ... and its (u, R, D) (node_coupling)
 
     def evaluate(self, state, u_local, dim):
-        """Fill everything for ``u_local`` (G&W step 5 and the internal force)."""
+        """Fill everything for ``u_local`` (G&W step 5 and the internal force).
+        Collective with F-bar on the nodes (its average sums over the ranks)."""
         st, mt = state, state.materials
         cells = st.cells if st.cells is not None else fbar.NONE
+        radius = st.radius if st.radius is not None else _NO_RADIUS
+        axes, footprint = tuple(range(dim)), tuple(range(st.S.shape[1]))
+        self.jbar = _NO_JBAR
+        if cells.kind == "nodes":            # the increments first, then their average on the nodes
+            particle_step.increments(st.kinematics.kernel_code, axes, footprint, u_local, st.node_index,
+                                     st.active, st.S, st.G, radius, self.F_inc)
+            self.jbar = cells.jbar(st.node_index, st.active, st.S, st.volume_n, self.F_inc)
         self.inverted, self.unconverged = particle_step.evaluate_particles(
-            st.kinematics.kernel_code, tuple(range(dim)), tuple(range(st.S.shape[1])), u_local,
-            st.node_index, st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS,
+            st.kinematics.kernel_code, axes, footprint, u_local,
+            st.node_index, st.active, st.S, st.G, radius,
             st.F_n, st.volume_n, mt.only_model, mt.models, mt.params, mt.material_of, st.history_packed, True, True,
-            cells.cell, cells.count, self.F_inc, self.F, self.sigma, self.history, self.force, self.tangent,
-            self.hoop, self.fbar_q, self.fbar_weight)
+            cells.cell, 0 if cells.kind == "nodes" else cells.count, self.F_inc, self.F, self.sigma, self.history,
+            self.force, self.tangent, self.hoop, self.fbar_q, self.fbar_weight, self.jbar, mt.f_bar_alpha)
         self.u = u_local.copy()
+
+    def node_coupling(self, state):
+        """F-bar on the nodes: (R, D) of :meth:`pimpm.fbar.AveragedNodes.coupling`
+        at this iterate, made once (collective: every rank asks at the same
+        iterate)."""
+        if self._coupling is None or self._coupling[0] is not self.u:
+            st = state
+            R, D = st.cells.coupling(st.kinematics.kernel_code, st.node_index, st.active, st.S, st.G,
+                                     st.radius if st.radius is not None else _NO_RADIUS, self.F_inc, self.fbar_q,
+                                     st.volume_n, self.jbar)
+            self._coupling = (self.u, R, D)
+        return self._coupling[1], self._coupling[2]
 
     def matches(self, u_local):
         return self.u is not None and np.array_equal(self.u, u_local)
 
 
 _NO_RADIUS = np.zeros(0)
+_NO_JBAR = np.zeros(0)
 
 
 class StepProblem:
@@ -225,7 +249,10 @@ class StepProblem:
         st = self.state
         kinematic = self.kinematic_displacement(u_owned, u_local)
         evaluation = st.evaluation
-        if not evaluation.matches(kinematic):
+        stale = not evaluation.matches(kinematic)
+        if st.cells is not None and st.cells.kind == "nodes":      # its sums need every rank
+            stale = self.grid.comm.allreduce(stale, op=MPI.LOR)
+        if stale:
             with self._stage("Constitutive update"):
                 evaluation.evaluate(st, kinematic, self.grid.dim)
         # one reduction tells every rank about inverted particles and signals:
@@ -310,7 +337,7 @@ class StepProblem:
                 raise NotImplementedError("nodal terms with a derivative need the COO assembly "
                                           "(velocity formulation)")
             K.zeroEntries()
-            if evaluation is not None and len(st.F_n):
+            if evaluation is not None:          # (collective with F-bar on the nodes)
                 K.setValuesLocalCSR(pattern.scalar_indptr, pattern.scalar_indices,
                                     self._tangent_values(evaluation), addv=PETSc.InsertMode.ADD_VALUES)
             K.assemble()
@@ -388,6 +415,9 @@ class StepProblem:
         values = st.tangent_values
         if values is None:
             values = st.tangent_values = np.empty(len(pattern.scalar_indices))
+        cells = st.cells
+        nodal = cells is not None and cells.kind == "nodes"
+        coupling = evaluation.node_coupling(st) if nodal else None       # collective
         if not len(st.F_n):
             values[:] = 0.0
             return values
@@ -397,8 +427,12 @@ class StepProblem:
             st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS, evaluation.F_inc,
             evaluation.tangent, evaluation.hoop, grid.ghost_ijk,
             pattern.width, pattern.indptr, pattern.slot_position, values)
-        cells = st.cells
-        if cells is not None and cells.count:
+        if nodal:
+            gx, gy = cells.ghost_shape()
+            fbar.check_node_boxes(fbar_kernels.node_blocks(
+                cells.half, cells.centres, coupling[0], coupling[1], grid.ghost_ijk, gx, gy, pattern.width,
+                pattern.indptr, pattern.slot_position, values))
+        elif cells is not None and cells.count:
             outside = fbar_kernels.cell_blocks(
                 st.kinematics.kernel_code, tuple(range(grid.dim)), fbar.cell_box_side(st), cells.order, cells.start,
                 st.node_index, st.active, st.S, st.G, st.radius if st.radius is not None else _NO_RADIUS,

@@ -7,7 +7,7 @@ import numpy as np
 from ..kernels import fbar as fbar_kernels
 from ..kernels import particle_step
 from .momentum import projection_diagonal
-from ..fbar import cell_box_side, check_cell_boxes
+from ..fbar import cell_box_side, check_cell_boxes, check_node_boxes
 
 _NO_RADIUS = np.zeros(0)
 
@@ -31,6 +31,7 @@ class TangentShell:
         self.scale = 1.0        # residual scale (dimensionless residual)
         self.project = None     # momentum formulation: x -> R x
         self.u = None           # the iterate
+        self.node_coupling = None
 
     def _term_blocks(self):
         """The nodal terms' derivative blocks at the iterate (pimpm.terms)."""
@@ -46,6 +47,10 @@ class TangentShell:
         self.state = state
         self.evaluation = evaluation
         self.scale = scale
+        cells = state.cells
+        # F-bar on the nodes: its coupling's (R, D), summed over the ranks once per iterate (collective)
+        self.node_coupling = (evaluation.node_coupling(state) if cells is not None and cells.kind == "nodes"
+                              else None)
 
     def _add_coupled(self, apply, out):
         """Add the particle-coupled terms' share (``apply(term, out_local)``)
@@ -68,7 +73,7 @@ class TangentShell:
         or None without averaged cells on this rank."""
         st, ev = self.state, self.evaluation
         cells = st.cells
-        if cells is None or not cells.count:
+        if cells is None or not cells.count or cells.kind == "nodes":
             return None
         return (st.kinematics.kernel_code, tuple(range(self.grid.dim)), cell_box_side(st), cells.order,
                 cells.start, st.node_index, st.active, st.S, st.G,
@@ -87,6 +92,10 @@ class TangentShell:
         cell = self._cell_arguments()
         if cell is not None:
             check_cell_boxes(fbar_kernels.cell_product(*cell, x_local, local))
+        if self.node_coupling is not None:
+            cells = st.cells
+            check_node_boxes(fbar_kernels.node_product(cells.half, cells.centres, *self.node_coupling, grid.ghost_ijk,
+                                                       *cells.ghost_shape(), x_local, local))
         out = grid.sum_to_owned(local)
         if st.integrator.stiffness_factor != 1.0:       # HHT: (1 + alpha) K
             out *= st.integrator.stiffness_factor
@@ -107,6 +116,10 @@ class TangentShell:
         cell = self._cell_arguments()
         if cell is not None:
             check_cell_boxes(fbar_kernels.cell_diagonal(*cell, local))
+        if self.node_coupling is not None:
+            cells = st.cells
+            check_node_boxes(fbar_kernels.node_diagonal(cells.half, cells.centres, *self.node_coupling,
+                                                        grid.ghost_ijk, *cells.ghost_shape(), local))
         out = grid.sum_to_owned(local)
         if self.project is not None:             # (collective: every rank takes this branch)
             # momentum formulation: diag(K) diag(R), a Jacobi approximation of diag(K R)

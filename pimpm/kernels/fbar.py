@@ -29,7 +29,7 @@ import numpy as np
 
 from .jit import jit
 from .pattern import stencil_slot
-from .small import inv2, inv3
+from .small import det3, inv2, inv3
 
 #: kinematics code of the particle kernels (pimpm.kernels.particle_step.AXISYMMETRIC)
 _AXISYMMETRIC = 2
@@ -75,6 +75,41 @@ def _box_slot(node, node_ijk, origin, dim, side):
 
 
 @jit
+def _particle_vectors(kinematics, dim, p, active, S, G, radius, F_inc, fbar_q, Finv, g, rows, cols):
+    """Particle p's row vector v Q g_k (rows[k]) and divergence vector g_k
+    (cols[k]) at each of its nodes k, g = F_inc^-T G, with the axisymmetric
+    hoop strain du_r / r and its row (S_k / r, r the current radius);
+    ``Finv``, ``g``: scratch. Inactive entries are left as they are."""
+    nn = active.shape[1]
+    for a in range(3):
+        for b in range(3):
+            Finv[a, b] = 0.0
+    if dim == 2:
+        inv2(F_inc[p], Finv)
+    else:
+        inv3(F_inc[p], Finv)
+    r = radius[p] * F_inc[p, 2, 2] if kinematics == _AXISYMMETRIC else 1.0
+    for k in range(nn):
+        if not active[p, k]:
+            continue
+        for d in range(dim):
+            s = 0.0
+            for cc in range(dim):
+                s += G[p, k, cc] * Finv[cc, d]
+            g[d] = s
+        for a in range(dim):
+            s = 0.0
+            for cc in range(dim):
+                s += g[cc] * fbar_q[p, a, cc]
+            rows[k, a] = s
+            cols[k, a] = g[a]
+        if kinematics == _AXISYMMETRIC:
+            w = S[p, k] / r
+            rows[k, 0] += w * fbar_q[p, 2, 2]
+            cols[k, 0] += w
+
+
+@jit
 def _cell_vectors(kinematics, dim, order, first, last, node_index, active, S, G, radius, F_inc, fbar_q,
                   fbar_weight, node_ijk, origin, side, box_node, R, D):
     """Fill the box of the cell whose particles are order[first:last]: its
@@ -89,17 +124,12 @@ def _cell_vectors(kinematics, dim, order, first, last, node_index, active, S, G,
     D[:] = 0.0
     Finv = np.zeros((3, 3))
     g = np.empty(3)
+    rows = np.empty((nn, 3))
+    cols = np.empty((nn, 3))
     outside = 0
     for i in range(first, last):
         p = order[i]
-        for a in range(3):
-            for b in range(3):
-                Finv[a, b] = 0.0
-        if dim == 2:
-            inv2(F_inc[p], Finv)
-        else:
-            inv3(F_inc[p], Finv)
-        r = radius[p] * F_inc[p, 2, 2] if kinematics == _AXISYMMETRIC else 1.0
+        _particle_vectors(kinematics, dim, p, active, S, G, radius, F_inc, fbar_q, Finv, g, rows, cols)
         weight = fbar_weight[p]
         for k in range(nn):
             if not active[p, k]:
@@ -110,21 +140,9 @@ def _cell_vectors(kinematics, dim, order, first, last, node_index, active, S, G,
                 outside += 1
                 continue
             box_node[slot] = node
-            for d in range(dim):                      # g = F_inc^-T G
-                s = 0.0
-                for cc in range(dim):
-                    s += G[p, k, cc] * Finv[cc, d]
-                g[d] = s
             for a in range(dim):
-                s = 0.0
-                for cc in range(dim):
-                    s += g[cc] * fbar_q[p, a, cc]
-                R[slot, a] += s
-                D[slot, a] += weight * g[a]
-            if kinematics == _AXISYMMETRIC:           # the hoop strain du_r / r and its row
-                w = S[p, k] / r
-                R[slot, 0] += w * fbar_q[p, 2, 2]
-                D[slot, 0] += weight * w
+                R[slot, a] += rows[k, a]
+                D[slot, a] += weight * cols[k, a]
     return outside
 
 
@@ -208,3 +226,238 @@ def cell_diagonal(kinematics, axes, side, order, start, node_index, active, S, G
     """out += the diagonal of sum_c R_c (x) D_c (``out`` not zeroed)."""
     return _each_cell(_DIAGONAL, kinematics, len(axes), side, order, start, node_index, active, S, G, radius,
                       F_inc, fbar_q, fbar_weight, node_ijk, _NO_FLOAT2, out, 0, _NO_INT, _NO_INT2, _NO_FLOAT)
+
+
+# ----------------------------------------------------------------- averaged on the nodes
+#
+# J_bar_p = sum_I S+_Ip J_I / sum_I S+_Ip,  J_I = sum_q S+_Iq V_q J_q / W_I,  W_I = sum_q S+_Iq V_q,
+#
+# S+ = max(S, 0) (the weak-node extension can make a weight negative), V the volume at the step's
+# start, J = det F_inc, sums over the averaged particles of every rank. Its variation
+# dJ_bar_p / J_bar_p = sum_I (S+_Ip / (s_p J_bar_p)) sum_q (S+_Iq V_q J_q / W_I) div_q (s_p the sum of
+# p's weights) makes the coupling sum_I R_I (x) D_I, rank one per node:
+#
+#   R_I = sum_p (S+_Ip / (s_p J_bar_p)) v_p Q_p g_p,   D_I = sum_q (S+_Iq V_q J_q / W_I) g_q
+#
+# over the nodes that particles reaching I reach: a box of 2 (nodes per axis) - 1 per axis about I.
+# Each rank sums its particles' shares into (n_local_nodes, slots, dim) boxes, the owner of I adds
+# them up (pimpm.fbar.AveragedNodes) and adds R_I (x) D_I, whose rows and columns lie within
+# nodes-per-axis - 1 <= the DMDA's stencil width of I.
+
+@jit
+def node_sums(node_index, active, S, volume_n, F_inc, averaged, weights, out):
+    """out[I] += S+_Ip V_p (``weights``) or S+_Ip V_p det F_inc,p over the
+    particles with ``averaged`` >= 0 (``out``: ghosted-local, not zeroed)."""
+    nn = node_index.shape[1]
+    for p in range(S.shape[0]):
+        if averaged[p] < 0:
+            continue
+        value = volume_n[p] if weights else volume_n[p] * det3(F_inc[p])
+        for k in range(nn):
+            if active[p, k] and S[p, k] > 0.0:
+                out[node_index[p, k]] += S[p, k] * value
+
+
+@jit
+def node_average(node_index, active, S, averaged, J_node, jbar):
+    """jbar[p] = sum_k S+_pk J_node[k] / sum_k S+_pk for the averaged
+    particles (1 for the others: not used)."""
+    nn = node_index.shape[1]
+    for p in range(S.shape[0]):
+        jbar[p] = 1.0
+        if averaged[p] < 0:
+            continue
+        num = 0.0
+        den = 0.0
+        for k in range(nn):
+            if active[p, k] and S[p, k] > 0.0:
+                num += S[p, k] * J_node[node_index[p, k]]
+                den += S[p, k]
+        if den > 0.0:
+            jbar[p] = num / den
+
+
+@jit
+def _node_box_slot(centre, node, node_ijk, dim, half):
+    """Slot of ``node`` in the box of 2 half + 1 nodes per axis about ``centre`` (x fastest), -1 outside."""
+    side = 2 * half + 1
+    slot = 0
+    for d in range(dim - 1, -1, -1):
+        o = node_ijk[node, d] - node_ijk[centre, d] + half
+        if o < 0 or o >= side:
+            return -1
+        slot = slot * side + o
+    return slot
+
+
+@jit
+def node_presence(node_index, active, S, averaged, node_ijk, dim, half, out):
+    """out[I, slot of K] += 1 for every averaged particle reaching I (S+ > 0)
+    and K (``out``: (n_local_nodes, slots), not zeroed): where R_I and D_I
+    can be nonzero. Returns the number of footprint nodes outside a box (0
+    unless ``half`` is too small: a bug)."""
+    nn = node_index.shape[1]
+    outside = 0
+    for p in range(S.shape[0]):
+        if averaged[p] < 0:
+            continue
+        for k0 in range(nn):
+            if not (active[p, k0] and S[p, k0] > 0.0):
+                continue
+            centre = node_index[p, k0]
+            for k in range(nn):
+                if active[p, k]:
+                    slot = _node_box_slot(centre, node_index[p, k], node_ijk, dim, half)
+                    if slot < 0:
+                        outside += 1
+                    else:
+                        out[centre, slot] += 1.0
+    return outside
+
+
+@jit
+def node_vectors(kinematics, dim, node_index, active, S, G, radius, F_inc, fbar_q, averaged, volume_n, jbar,
+                 weight_sum, node_ijk, half, R, D):
+    """This rank's shares of R_I and D_I (``R``, ``D``: (n_local_nodes,
+    slots, dim), not zeroed; ``weight_sum``: W_I of every rank's particles
+    on the ghosted-local nodes). Returns the number of footprint nodes
+    outside a box (0 unless ``half`` is too small: a bug)."""
+    nn = node_index.shape[1]
+    Finv = np.zeros((3, 3))
+    g = np.empty(3)
+    rows = np.empty((nn, 3))
+    cols = np.empty((nn, 3))
+    outside = 0
+    for p in range(S.shape[0]):
+        if averaged[p] < 0:
+            continue
+        share = 0.0
+        for k in range(nn):
+            if active[p, k] and S[p, k] > 0.0:
+                share += S[p, k]
+        if share <= 0.0:
+            continue
+        J = det3(F_inc[p])
+        _particle_vectors(kinematics, dim, p, active, S, G, radius, F_inc, fbar_q, Finv, g, rows, cols)
+        for k0 in range(nn):
+            if not (active[p, k0] and S[p, k0] > 0.0):
+                continue
+            centre = node_index[p, k0]
+            row_factor = S[p, k0] / (share * jbar[p])
+            col_factor = S[p, k0] * volume_n[p] * J / weight_sum[centre]
+            for k in range(nn):
+                if not active[p, k]:
+                    continue
+                slot = _node_box_slot(centre, node_index[p, k], node_ijk, dim, half)
+                if slot < 0:
+                    outside += 1
+                    continue
+                for a in range(dim):
+                    R[centre, slot, a] += row_factor * rows[k, a]
+                    D[centre, slot, a] += col_factor * cols[k, a]
+    return outside
+
+
+@jit
+def _each_node(mode, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, x, out, width, indptr,
+               slot_position, values):
+    """One pass over the owned nodes ``centres``: add R_I (x) D_I into the
+    block CSR ``values`` (_BLOCKS), R_I (D_I . x) into ``out`` (_PRODUCT)
+    or the diagonal of R_I (x) D_I into ``out`` (_DIAGONAL). Slots whose
+    R or D are all zero are skipped (they hold no particle's share).
+    Returns the number of couplings missing from the pattern (0 unless the
+    pattern is wrong: a bug)."""
+    slots = R.shape[1]
+    side = 2 * half + 1
+    wide = 2 * width + 1
+    # each box slot's offsets from the centre, and its node's offset in the ghosted numbering
+    offset = np.zeros((slots, 3), dtype=np.int64)
+    shift = np.zeros(slots, dtype=np.int64)
+    gy = ghost_y if dim == 3 else 1
+    for s in range(slots):
+        offset[s, 0] = s % side - half
+        offset[s, 1] = (s // side) % side - half
+        offset[s, 2] = s // (side * side) - half if dim == 3 else 0
+        shift[s] = offset[s, 0] + ghost_x * (offset[s, 1] + gy * offset[s, 2])
+    rows = np.empty(slots, dtype=np.int64)
+    cols = np.empty(slots, dtype=np.int64)
+    missing = 0
+    for I in centres:
+        n_rows = 0
+        n_cols = 0
+        for s in range(slots):
+            r_used = False
+            d_used = False
+            for a in range(dim):
+                if R[I, s, a] != 0.0:
+                    r_used = True
+                if D[I, s, a] != 0.0:
+                    d_used = True
+            if r_used:
+                rows[n_rows] = s
+                n_rows += 1
+            if d_used:
+                cols[n_cols] = s
+                n_cols += 1
+        if mode == _PRODUCT:
+            mean = 0.0
+            for c in range(n_cols):
+                t = cols[c]
+                j = I + shift[t]
+                for b in range(dim):
+                    mean += D[I, t, b] * x[j, b]
+            for r in range(n_rows):
+                s = rows[r]
+                i = I + shift[s]
+                for a in range(dim):
+                    out[i, a] += R[I, s, a] * mean
+        elif mode == _DIAGONAL:
+            for r in range(n_rows):
+                s = rows[r]
+                i = I + shift[s]
+                for a in range(dim):
+                    out[i, a] += R[I, s, a] * D[I, s, a]
+        else:
+            for r in range(n_rows):
+                s = rows[r]
+                i = I + shift[s]
+                row = dim * dim * indptr[i]
+                stride = (indptr[i + 1] - indptr[i]) * dim
+                for c in range(n_cols):
+                    t = cols[c]
+                    slot = 0                    # stencil_slot(i, j): the offset of t from s
+                    for d in range(dim - 1, -1, -1):
+                        slot = slot * wide + offset[t, d] - offset[s, d] + width
+                    position = slot_position[i, slot]
+                    if position < 0:
+                        missing += 1
+                        continue
+                    base = row + (position - indptr[i]) * dim
+                    for a in range(dim):
+                        ra = R[I, s, a]
+                        for b in range(dim):
+                            values[base + a * stride + b] += ra * D[I, t, b]
+    return missing
+
+
+def node_blocks(half, centres, R, D, node_ijk, ghost_x, ghost_y, width, indptr, slot_position, values):
+    """Add R_I (x) D_I of the owned nodes ``centres`` (ghosted-local; ``R``,
+    ``D``: every rank's shares summed on them) into ``values`` (not zeroed).
+    Returns the number of couplings missing from the pattern."""
+    dim = node_ijk.shape[1]
+    return _each_node(_BLOCKS, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, _NO_FLOAT2, _NO_FLOAT2,
+                      width, indptr, slot_position, values)
+
+
+def node_product(half, centres, R, D, node_ijk, ghost_x, ghost_y, x, out):
+    """out += sum_I R_I (D_I . x) (``x``, ``out``: ghosted-local (n_nodes, dim))."""
+    dim = node_ijk.shape[1]
+    return _each_node(_PRODUCT, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, x, out, 0, _NO_INT,
+                      _NO_INT2, _NO_FLOAT)
+
+
+def node_diagonal(half, centres, R, D, node_ijk, ghost_x, ghost_y, out):
+    """out += the diagonal of sum_I R_I (x) D_I."""
+    dim = node_ijk.shape[1]
+    return _each_node(_DIAGONAL, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, _NO_FLOAT2, out, 0,
+                      _NO_INT, _NO_INT2, _NO_FLOAT)

@@ -42,7 +42,8 @@ def _in_plane_inverse(F, dim, out):
 @jit
 def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G, radius, F_n, volume_n,
                        only_model, models, params, material_of, h_in, want_tangent, want_force,
-                       fbar_cell, n_cells, F_inc, F, sigma, h_out, force, tangent, hoop, fbar_q, fbar_weight):
+                       fbar_cell, n_cells, F_inc, F, sigma, h_out, force, tangent, hoop, fbar_q, fbar_weight,
+                       jbar, fbar_alpha):
     """Kinematics, material points and (``want_force``) the internal force
     for the ghosted-local nodal displacement ``u`` (n_nodes, dim); footprint
     entries that are not ``active`` (no weight, no gradient) are skipped.
@@ -72,7 +73,13 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     sum_q V_q over the cell; F_inc and the force keep the true increment,
     F is F_inc_bar F(t). With ``want_tangent``, ``tangent`` and ``hoop``
     include the particle's own F-bar term and ``fbar_q`` (n, 3, 3) = v Q,
-    ``fbar_weight`` (n,) = v / sum_q v_q are what the cell coupling needs."""
+    ``fbar_weight`` (n,) = v / sum_q v_q are what the cell coupling needs.
+    ``jbar`` (n,), if not empty, is J_bar averaged on the nodes instead
+    (:func:`pimpm.kernels.fbar.node_average`; ``n_cells`` is then 0 and
+    fbar_weight 0). ``fbar_alpha`` (per material): the exponent alpha of
+    F_inc_bar = (J_bar / J_inc)^(alpha / n) F_inc, 1 - the material's
+    f_bar_blend (det F_inc_bar = J_bar^alpha J_inc^(1 - alpha)); Q is alpha
+    times de Souza Neto's."""
     dim = len(axes)
     n = S.shape[0]
     nn = len(footprint)
@@ -104,11 +111,13 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     unconverged = 0
     # F-bar: each averaged cell's volume at t and at the iterate
     fbar = len(fbar_cell) > 0 and kinematics != PLANE_STRESS
+    nodal = len(jbar) > 0                # J_bar given, averaged on the nodes
+    cellwise = fbar and not nodal
     stretched = 2 if (dim == 2 and kinematics == GENERAL) else 3
-    cell_volume_n = np.zeros(n_cells if fbar else 0)
-    cell_volume = np.zeros(n_cells if fbar else 0)
+    cell_volume_n = np.zeros(n_cells if cellwise else 0)
+    cell_volume = np.zeros(n_cells if cellwise else 0)
     Fb = np.empty((3, 3))
-    if fbar:                             # every increment first (kept in F_inc), then the cells' sums
+    if cellwise:                         # every increment first (kept in F_inc), then the cells' sums
         for p in range(n):
             _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)
             for a in range(3):
@@ -119,7 +128,7 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
                 cell_volume_n[c] += volume_n[p]
                 cell_volume[c] += volume_n[p] * det3(Fi)
     for p in range(n):
-        if fbar:
+        if cellwise:
             copy3(F_inc, p, Fi)
         else:
             _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)
@@ -130,10 +139,13 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
         Fb[:, :] = Fi
         averaged = fbar and fbar_cell[p] >= 0 and not increment_inverts
         if averaged:
-            c = fbar_cell[p]
-            ratio = cell_volume[c] / cell_volume_n[c] / J_inc
+            if nodal:
+                ratio = jbar[p] / J_inc
+            else:
+                c = fbar_cell[p]
+                ratio = cell_volume[c] / cell_volume_n[c] / J_inc
             if ratio > 0.0:
-                scale = ratio ** (1.0 / stretched)
+                scale = ratio ** (fbar_alpha[material_of[p]] / stretched)
                 for a in range(stretched):
                     for b in range(stretched):
                         Fb[a, b] = scale * Fi[a, b]
@@ -176,8 +188,8 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
                 _hoop_terms(c_scratch, sp, v, dim, hoop[p])
             if fbar:
                 if averaged:
-                    fbar_weight[p] = v / cell_volume[fbar_cell[p]]
-                    _fbar_own_terms(c_scratch, sp, v, dim, stretched, kinematics == AXISYMMETRIC,
+                    fbar_weight[p] = 0.0 if nodal else v / cell_volume[fbar_cell[p]]
+                    _fbar_own_terms(c_scratch, sp, fbar_alpha[m] * v, dim, stretched, kinematics == AXISYMMETRIC,
                                     fbar_q, p, tangent, hoop)
                 else:
                     fbar_weight[p] = 0.0
@@ -200,6 +212,20 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
             for k in range(nn):
                 force[node_index[p, k], 0] += h * S[p, k]
     return inverted, unconverged
+
+
+@jit
+def increments(kinematics, axes, footprint, u, node_index, active, S, G, radius, F_inc):
+    """F_inc (n, 3, 3) of every particle for the ghosted-local displacement
+    u (:func:`_increment`): what F-bar's nodal average needs before the
+    material points are evaluated."""
+    grad = np.empty((3, 3))
+    Fi = np.empty((3, 3))
+    for p in range(S.shape[0]):
+        _increment(kinematics, len(axes), len(footprint), u, node_index, active, S, G, radius, p, grad, Fi)
+        for a in range(3):
+            for b in range(3):
+                F_inc[p, a, b] = Fi[a, b]
 
 
 @jit

@@ -77,8 +77,32 @@ def mark_cells(order, start, node_index, active, node_ijk, dim, width, mark):
 
 
 @jit
+def mark_boxes(centres, presence, half, node_ijk, dim, width, ghost_x, ghost_y, mark):
+    """mark[i, slot of j] = True for every pair of nodes (i, j) present in
+    the box of 2 half + 1 nodes per axis about one of the ``centres``
+    (``presence`` (n_nodes, slots) > 0; the couplings of
+    :func:`pimpm.kernels.fbar.node_blocks`)."""
+    side = 2 * half + 1
+    slots = presence.shape[1]
+    nodes = np.empty(slots, dtype=np.int64)
+    gy = ghost_y if dim == 3 else 1
+    for centre in centres:
+        count = 0
+        for s in range(slots):
+            if presence[centre, s] > 0.0:
+                dx = s % side - half
+                dy = (s // side) % side - half
+                dz = s // (side * side) - half if dim == 3 else 0
+                nodes[count] = centre + dx + ghost_x * (dy + gy * dz)
+                count += 1
+        for a in range(count):
+            for b in range(count):
+                mark[nodes[a], stencil_slot(nodes[a], nodes[b], node_ijk, dim, width)] = True
+
+
+@jit
 def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes, ghost_x, ghost_y,
-                  cell_order, cell_start):
+                  cell_order, cell_start, box_centres, box_presence, box_half):
     """Block CSR of the couplings (indptr over all ghosted-local nodes,
     column node indices sorted; ``ghost_x``, ``ghost_y``: the ghosted box's
     nodes along x and y) and slot_position (n_nodes, slots): the
@@ -86,7 +110,9 @@ def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes
     its diagonal block (the mass term and prescribed rows need it).
     ``cell_order``, ``cell_start`` (:func:`pimpm.kernels.fbar.cell_groups`;
     empty without F-bar): the nodes that particles of one averaged cell
-    reach are coupled too (the F-bar cell coupling)."""
+    reach are coupled too (the F-bar cell coupling). ``box_centres``,
+    ``box_presence``, ``box_half`` (empty without F-bar on the nodes): the
+    nodes present in each centre's box are coupled (:func:`mark_boxes`)."""
     side = 2 * width + 1
     slots = side ** dim
     centre = (slots - 1) // 2
@@ -110,6 +136,8 @@ def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes
                     mark[i, stencil_slot(i, node_index[p, m], node_ijk, dim, width)] = True
     if len(cell_start) > 1:
         mark_cells(cell_order, cell_start, node_index, active, node_ijk, dim, width, mark)
+    if len(box_centres):
+        mark_boxes(box_centres, box_presence, box_half, node_ijk, dim, width, ghost_x, ghost_y, mark)
     for i in owned_nodes:
         mark[i, centre] = True
     indptr = np.zeros(n_nodes + 1, dtype=np.int64)

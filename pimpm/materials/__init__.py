@@ -46,7 +46,10 @@ def make_material(spec):
     mu, kappa = elastic_moduli(spec)
     values = {k: spec[k] for k in MODELS[model].parameters if spec.get(k) is not None}
     material = Material(MODELS[model], mu, kappa, spec["density"], **values)
-    material.f_bar = bool(spec.get("f_bar", False))
+    f_bar = spec.get("f_bar", False)        # False, or what it averages over ("cells", "nodes")
+    material.f_bar = ("cells" if f_bar is True else f_bar) if f_bar else False
+    if material.f_bar:
+        material.f_bar_blend = float(spec.get("f_bar_blend", 0.0))
     return material
 
 

@@ -168,8 +168,11 @@ class Material(ElasticConstants):
         unknown = set(values) - set(model.parameters)
         if unknown:
             raise ValueError(f"{model.name} takes no parameter {sorted(unknown)[0]!r}")
-        #: is the volume change averaged over each cell (F-bar, pimpm.kernels.fbar)?
+        #: F-bar (pimpm.fbar): False, or what the volume change is averaged over ("cells", "nodes")
         self.f_bar = False
+        #: ... and the particle's own share in the volume change the material sees:
+        #: det F_bar = J_bar^(1 - blend) J^blend
+        self.f_bar_blend = 0.0
         self.values = {}
         for key, parameter in model.parameters.items():
             value = values.get(key)

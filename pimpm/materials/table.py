@@ -28,6 +28,8 @@ class MaterialTable:
         self.width = max([self.history_width(m) for m in materials] + [0])
         #: each material's F-bar switch (pimpm.kernels.fbar)
         self.f_bar = np.array([bool(getattr(m, "f_bar", False)) for m in materials], dtype=bool)
+        #: ... and the exponent of its average, 1 - f_bar_blend (det F_bar = J_bar^alpha J^(1 - alpha))
+        self.f_bar_alpha = np.array([1.0 - getattr(m, "f_bar_blend", 0.0) for m in materials] + [1.0])
         # one model for every particle: the kernels compile only its code
         codes = set(self.models.tolist())
         self.only_model = kernel_codes.model_tag(codes.pop() if len(codes) == 1 else kernel_codes.MIXED)

@@ -46,8 +46,9 @@ class ParticleStress:
         self.axes = tuple(range(sim.dim))
         self.footprint = tuple(range(S.shape[1]))
         # F-bar: the cells at the step's start, and the volumes their averages weigh
-        self.cells = fbar.averaged_cells(sim.grid, p["x"], self.table) if sim.f_bar else fbar.NONE
-        self.volume = (p["volume0"] * np.linalg.det(p["F"]) if self.cells.count else p["volume0"])
+        self.volume = p["volume0"] * np.linalg.det(p["F"]) if sim.f_bar else p["volume0"]
+        self.cells = fbar.averaging(sim.f_bar_average, sim.solve_grid, p["x"], self.table, node_index,
+                                    self.active, S, self.volume)
 
     def particle_to_grid(self):
         """Ghosted-local field nodes (n_nodes, 1 + 2 dim): mass, momentum and
@@ -91,12 +92,19 @@ class ParticleStress:
         F_inc, F, sigma = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3))
         packed = table.pack(self.history)
         h_out = np.empty_like(packed)
+        u_local = dt * v_local
+        cells, jbar = self.cells, np.zeros(0)
+        if cells.kind == "nodes":            # the increments first, then their average on the nodes (collective)
+            particle_step.increments(sim.kinematics.kernel_code, self.axes, self.footprint, u_local,
+                                     self.node_index, self.active, self.S, self.G, self.radius, F_inc)
+            jbar = cells.jbar(self.node_index, self.active, self.S, self.volume, F_inc)
         inverted, unconverged = particle_step.evaluate_particles(
-            sim.kinematics.kernel_code, self.axes, self.footprint, dt * v_local, self.node_index,
+            sim.kinematics.kernel_code, self.axes, self.footprint, u_local, self.node_index,
             self.active, self.S, self.G, self.radius, p["F"], self.volume, table.only_model, table.models,
-            table.params, table.material_of, packed, False, False, self.cells.cell, self.cells.count,
+            table.params, table.material_of, packed, False, False, cells.cell,
+            0 if cells.kind == "nodes" else cells.count,
             F_inc, F, sigma, h_out, np.empty((0, dim)), np.empty((0,) + (dim,) * 4),
-            np.empty((0, 2 * dim * dim + 1)), np.empty((0, 3, 3)), np.empty(0))
+            np.empty((0, 2 * dim * dim + 1)), np.empty((0, 3, 3)), np.empty(0), jbar, table.f_bar_alpha)
         self.pending = F, sigma, h_out
         return inverted, unconverged
 

@@ -90,11 +90,12 @@ def prepare(sim, dt):
     groups = materials.groups
     history = sim.particle_history()
     active = kernel_pattern.active_entries(S, G)
-    cells = fbar.averaged_cells(grid, p["x"], materials) if sim.f_bar else fbar.NONE
+    volume_n = p["volume0"] * tensors.det(p["F"])
+    cells = fbar.averaging(sim.f_bar_average, solve_grid, p["x"], materials, node_index, active, S, volume_n)
     state = StepState(
         dt=dt, integrator=sim.integrator, kinematics=sim.kinematics,
         node_index=node_index, S=S, G=G,
-        F_n=p["F"], volume_n=p["volume0"] * tensors.det(p["F"]),
+        F_n=p["F"], volume_n=volume_n,
         material_groups=groups, materials=materials, history_packed=materials.pack(history),
         active=active, pattern=sim.tangent_pattern(node_index, active, cells, pairs), cells=cells,
         mass=mass, velocity=velocity, acceleration=acceleration, external_force=fext,

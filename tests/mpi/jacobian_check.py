@@ -24,7 +24,7 @@ integrator = sys.argv[1] if len(sys.argv) > 1 else "quasi_static"
 three_d = len(sys.argv) > 2 and sys.argv[2] == "3d"
 shape = sys.argv[3] if len(sys.argv) > 3 else "linear"
 plastic = len(sys.argv) > 4 and sys.argv[4] in ("j2", "j2finite")
-options = sys.argv[5:]                    # a kinematics name, "momentum", "onecell", "fbar", "weak=F"
+options = sys.argv[5:]          # a kinematics name, "momentum", "onecell", "fbar", "fbarnodes", "weak=F"
 weak = [a for a in options if a.startswith("weak=")]
 options = [a for a in options if not a.startswith("weak=")]
 if weak:                                  # the fraction of pimpm.weak_nodes
@@ -32,8 +32,9 @@ if weak:                                  # the fraction of pimpm.weak_nodes
     PETSc.Options().setValue("pimpm_weak_node_fraction", weak[0].split("=")[1])
 momentum = "momentum" in options
 one_cell = "onecell" in options           # a column one cell wide in x (and y in 3D)
-f_bar = "fbar" in options                 # every material averages its volume change per cell
-kinematics = next((a for a in options if a not in ("momentum", "default", "onecell", "fbar")), None)
+# every material averages its volume change per cell (fbar) or on the nodes (fbarnodes)
+f_bar = "cells" if "fbar" in options else "nodes" if "fbarnodes" in options else False
+kinematics = next((a for a in options if a not in ("momentum", "default", "onecell", "fbar", "fbarnodes")), None)
 comm = MPI.COMM_WORLD
 raw = {
     "grid": {"lower": [0.0, 0.0], "upper": [5.0, 4.0], "cells": [10, 8],
@@ -98,9 +99,8 @@ if plastic:   # small-strain J2 with a low yield stress: particles yield in the 
     raw["materials"]["m"] = {"model": "j2_small_strain" if sys.argv[4] == "j2" else "j2_finite_strain",
                              "shear_modulus": 6.0e6, "bulk_modulus": 6.0e7,
                              "density": 10.0, "yield_stress": 2.0e5, "hardening_modulus": 1.0e6}
-if f_bar:
-    for material in raw["materials"].values():
-        material["f_bar"] = True
+for material in raw["materials"].values():   # F-bar only where asked (J2 in 2D would average on the nodes)
+    material["f_bar"] = f_bar
 sim = Simulation(validate(raw), comm)
 sim.advance(0.01)
 sim.advance(0.01)
