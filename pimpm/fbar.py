@@ -90,14 +90,35 @@ class AveragedNodes:
         weights = np.zeros(grid.n_local_nodes)
         kernels.node_sums(node_index, active, S, volume_n, _NO_F, marker, True, weights)
         self.weight_sum = self._summed(weights[:, None])[:, 0]
-        presence = np.zeros((grid.n_local_nodes, self.slots))
-        check_node_boxes(kernels.node_presence(node_index, active, S, marker, grid.ghost_ijk, dim, self.half,
-                                               presence))
-        owned = grid.sum_columns_to_owned(presence)
-        self.presence = np.zeros_like(presence)
-        self.presence[grid.owned_local_nodes] = owned
-        self.centres = grid.owned_local_nodes[np.any(owned > 0.0, axis=1)].astype(np.int64)
         self._marker = marker
+        self._footprint = (node_index, active, S)
+        self._boxes = None
+
+    def _box_presence(self):
+        """(presence, centres): how many particles put a share in each slot
+        of each owned node's box (n_local_nodes, slots; zero on the other
+        nodes), and the owned nodes whose box holds any. Made at the first
+        call, which every rank makes (the implicit step's pattern);
+        collective."""
+        if self._boxes is None:
+            grid = self.grid
+            node_index, active, S = self._footprint
+            presence = np.zeros((grid.n_local_nodes, self.slots))
+            check_node_boxes(kernels.node_presence(node_index, active, S, self._marker, grid.ghost_ijk, grid.dim,
+                                                   self.half, presence))
+            owned = grid.sum_columns_to_owned(presence)
+            presence[:] = 0.0
+            presence[grid.owned_local_nodes] = owned
+            self._boxes = (presence, grid.owned_local_nodes[np.any(owned > 0.0, axis=1)].astype(np.int64))
+        return self._boxes
+
+    @property
+    def presence(self):
+        return self._box_presence()[0]
+
+    @property
+    def centres(self):
+        return self._box_presence()[1]
 
     def _summed(self, local):
         """Every rank's ghosted-local shares summed, on the ghosted-local nodes."""
