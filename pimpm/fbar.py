@@ -81,8 +81,8 @@ class AveragedNodes:
         n = len(node_index)
         on = table.f_bar[table.material_of] if len(table.f_bar) else np.zeros(n, dtype=bool)
         self.count = int(np.count_nonzero(on))
-        self.cell = np.where(on, 0, -1).astype(np.int64) if self.count else np.zeros(0, dtype=np.int64)
         marker = np.where(on, 0, -1).astype(np.int64)
+        self.cell = marker if self.count else np.zeros(0, dtype=np.int64)
         dim = grid.dim
         self.half = int(round(node_index.shape[1] ** (1.0 / dim))) - 1
         self.slots = (2 * self.half + 1) ** dim
@@ -156,8 +156,8 @@ class AveragedNodes:
         return R, D
 
     def ghost_shape(self):
-        g = self.grid.ghost_shape
-        return int(g[0]), int(g[1]) if self.grid.dim > 1 else 1
+        """The ghosted box's nodes along x and y (the kernels' node numbering)."""
+        return int(self.grid.ghost_shape[0]), int(self.grid.ghost_shape[1])
 
 
 _NO_F = np.zeros((0, 3, 3))

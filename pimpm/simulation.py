@@ -408,10 +408,10 @@ class Simulation:
         else:
             order, start = cells.order, cells.start
             centres, presence, half = _NO_INT, _NO_PRESENCE, 0
-        gy = int(grid.ghost_shape[1]) if grid.dim > 1 else 1
         indptr, indices, slots = kernel_pattern.block_pattern(
             node_index, active, grid.ghost_ijk, grid.dim, width, grid.owned_local_nodes,
-            grid.n_local_nodes, int(grid.ghost_shape[0]), gy, order, start, centres, presence, half)
+            grid.n_local_nodes, int(grid.ghost_shape[0]), int(grid.ghost_shape[1]), order, start, centres, presence,
+            half)
         scalar_indptr, scalar_indices = kernel_pattern.scalar_csr(indptr, indices, grid.dim)
         return TangentPattern(width, indptr, indices, slots,
                               scalar_indptr.astype(PETSc.IntType), scalar_indices.astype(PETSc.IntType))

@@ -56,12 +56,11 @@ def summary(sim, config):
         mu = f", mu = {pair['friction_coefficient']:g}" if pair["law"] == "friction" else ""
         lines.append(f"  contact   {pair['bodies'][0]} - {pair['bodies'][1]}: {pair['law']}{mu} "
                      f"({sim.fields.count} grid velocity fields)")
-    averaged = [name for name, m in config["materials"].items() if m.get("f_bar")]
-    if averaged:
-        m = config["materials"][averaged[0]]
-        over = "per cell" if m["f_bar"] == "cells" else "on the nodes"
-        lines.append(f"  f-bar     {', '.join(averaged)}: volume change averaged {over}, the particle's own "
-                     f"share {m['f_bar_blend']:g} (docs/INPUT.md)")
+    averaged = {name: m for name, m in config["materials"].items() if m.get("f_bar")}
+    if averaged:                 # every averaged material averages the same way (pimpm.config)
+        over = "per cell" if next(iter(averaged.values()))["f_bar"] == "cells" else "on the nodes"
+        shares = ", ".join(f"{name} (the particle's own share {m['f_bar_blend']:g})" for name, m in averaged.items())
+        lines.append(f"  f-bar     volume change averaged {over}: {shares} (docs/INPUT.md)")
     dt_explicit = explicit_time_step(sim)
     if t["dt"] is None:
         lines.append(f"  time      explicit, automatic dt = {t['cfl']:g} x CFL step "

@@ -190,7 +190,7 @@ def test_nodal_f_bar_kernels_equal_the_numpy_reference(kinematics, shape, model,
     pattern = st.pattern
     assert relative(assembled(sim.problem, ev, pattern, dense.shape), dense) < 1e-10
     R, D = ev.node_coupling(st)
-    node_arguments = (cells.half, cells.centres, R, D, grid.ghost_ijk, *cells.ghost_shape())
+    node_arguments = (cells.half, cells.centres, R, D, *cells.ghost_shape())
     check_product_and_diagonal(st, ev, dense, lambda x, out: fbar_kernels.node_product(*node_arguments, x, out),
                                lambda out: fbar_kernels.node_diagonal(*node_arguments, out))
     # the pattern: every node a particle reaches with the nodes of the particles that reach its nodes

@@ -428,10 +428,9 @@ class StepProblem:
             evaluation.tangent, evaluation.hoop, grid.ghost_ijk,
             pattern.width, pattern.indptr, pattern.slot_position, values)
         if nodal:
-            gx, gy = cells.ghost_shape()
             fbar.check_node_boxes(fbar_kernels.node_blocks(
-                cells.half, cells.centres, coupling[0], coupling[1], grid.ghost_ijk, gx, gy, pattern.width,
-                pattern.indptr, pattern.slot_position, values))
+                cells.half, cells.centres, *coupling, *cells.ghost_shape(), pattern.width, pattern.indptr,
+                pattern.slot_position, values))
         elif cells is not None and cells.count:
             outside = fbar_kernels.cell_blocks(
                 st.kinematics.kernel_code, tuple(range(grid.dim)), fbar.cell_box_side(st), cells.order, cells.start,

@@ -94,7 +94,7 @@ class TangentShell:
             check_cell_boxes(fbar_kernels.cell_product(*cell, x_local, local))
         if self.node_coupling is not None:
             cells = st.cells
-            check_node_boxes(fbar_kernels.node_product(cells.half, cells.centres, *self.node_coupling, grid.ghost_ijk,
+            check_node_boxes(fbar_kernels.node_product(cells.half, cells.centres, *self.node_coupling,
                                                        *cells.ghost_shape(), x_local, local))
         out = grid.sum_to_owned(local)
         if st.integrator.stiffness_factor != 1.0:       # HHT: (1 + alpha) K
@@ -119,7 +119,7 @@ class TangentShell:
         if self.node_coupling is not None:
             cells = st.cells
             check_node_boxes(fbar_kernels.node_diagonal(cells.half, cells.centres, *self.node_coupling,
-                                                        grid.ghost_ijk, *cells.ghost_shape(), local))
+                                                        *cells.ghost_shape(), local))
         out = grid.sum_to_owned(local)
         if self.project is not None:             # (collective: every rank takes this branch)
             # momentum formulation: diag(K) diag(R), a Jacobi approximation of diag(K R)

@@ -28,7 +28,7 @@ its particles reaches.
 import numpy as np
 
 from .jit import jit
-from .pattern import stencil_slot
+from .pattern import box_offsets, stencil_slot
 from .small import det3, inv2, inv3
 
 #: kinematics code of the particle kernels (pimpm.kernels.particle_step.AXISYMMETRIC)
@@ -359,8 +359,7 @@ def node_vectors(kinematics, dim, node_index, active, S, G, radius, F_inc, fbar_
 
 
 @jit
-def _each_node(mode, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, x, out, width, indptr,
-               slot_position, values):
+def _each_node(mode, dim, half, centres, R, D, ghost_x, ghost_y, x, out, width, indptr, slot_position, values):
     """One pass over the owned nodes ``centres``: add R_I (x) D_I into the
     block CSR ``values`` (_BLOCKS), R_I (D_I . x) into ``out`` (_PRODUCT)
     or the diagonal of R_I (x) D_I into ``out`` (_DIAGONAL). Slots whose
@@ -368,17 +367,9 @@ def _each_node(mode, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, x, ou
     Returns the number of couplings missing from the pattern (0 unless the
     pattern is wrong: a bug)."""
     slots = R.shape[1]
-    side = 2 * half + 1
     wide = 2 * width + 1
     # each box slot's offsets from the centre, and its node's offset in the ghosted numbering
-    offset = np.zeros((slots, 3), dtype=np.int64)
-    shift = np.zeros(slots, dtype=np.int64)
-    gy = ghost_y if dim == 3 else 1
-    for s in range(slots):
-        offset[s, 0] = s % side - half
-        offset[s, 1] = (s // side) % side - half
-        offset[s, 2] = s // (side * side) - half if dim == 3 else 0
-        shift[s] = offset[s, 0] + ghost_x * (offset[s, 1] + gy * offset[s, 2])
+    offset, shift = box_offsets(half, dim, ghost_x, ghost_y)
     rows = np.empty(slots, dtype=np.int64)
     cols = np.empty(slots, dtype=np.int64)
     missing = 0
@@ -440,24 +431,22 @@ def _each_node(mode, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, x, ou
     return missing
 
 
-def node_blocks(half, centres, R, D, node_ijk, ghost_x, ghost_y, width, indptr, slot_position, values):
+def node_blocks(half, centres, R, D, ghost_x, ghost_y, width, indptr, slot_position, values):
     """Add R_I (x) D_I of the owned nodes ``centres`` (ghosted-local; ``R``,
-    ``D``: every rank's shares summed on them) into ``values`` (not zeroed).
-    Returns the number of couplings missing from the pattern."""
-    dim = node_ijk.shape[1]
-    return _each_node(_BLOCKS, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, _NO_FLOAT2, _NO_FLOAT2,
+    ``D``: (n_nodes, slots, dim), every rank's shares summed on them; the
+    ghosted box ``ghost_x`` by ``ghost_y`` nodes) into ``values`` (not
+    zeroed). Returns the number of couplings missing from the pattern."""
+    return _each_node(_BLOCKS, R.shape[2], half, centres, R, D, ghost_x, ghost_y, _NO_FLOAT2, _NO_FLOAT2,
                       width, indptr, slot_position, values)
 
 
-def node_product(half, centres, R, D, node_ijk, ghost_x, ghost_y, x, out):
+def node_product(half, centres, R, D, ghost_x, ghost_y, x, out):
     """out += sum_I R_I (D_I . x) (``x``, ``out``: ghosted-local (n_nodes, dim))."""
-    dim = node_ijk.shape[1]
-    return _each_node(_PRODUCT, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, x, out, 0, _NO_INT,
+    return _each_node(_PRODUCT, R.shape[2], half, centres, R, D, ghost_x, ghost_y, x, out, 0, _NO_INT,
                       _NO_INT2, _NO_FLOAT)
 
 
-def node_diagonal(half, centres, R, D, node_ijk, ghost_x, ghost_y, out):
+def node_diagonal(half, centres, R, D, ghost_x, ghost_y, out):
     """out += the diagonal of sum_I R_I (x) D_I."""
-    dim = node_ijk.shape[1]
-    return _each_node(_DIAGONAL, dim, half, centres, R, D, node_ijk, ghost_x, ghost_y, _NO_FLOAT2, out, 0,
+    return _each_node(_DIAGONAL, R.shape[2], half, centres, R, D, ghost_x, ghost_y, _NO_FLOAT2, out, 0,
                       _NO_INT, _NO_INT2, _NO_FLOAT)

@@ -76,7 +76,8 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
     ``fbar_weight`` (n,) = v / sum_q v_q are what the cell coupling needs.
     ``jbar`` (n,), if not empty, is J_bar averaged on the nodes instead
     (:func:`pimpm.kernels.fbar.node_average`; ``n_cells`` is then 0 and
-    fbar_weight 0). ``fbar_alpha`` (per material): the exponent alpha of
+    fbar_weight 0), and ``F_inc`` holds the increments of ``u`` already
+    (:func:`increments`, which the average needed). ``fbar_alpha`` (per material): the exponent alpha of
     F_inc_bar = (J_bar / J_inc)^(alpha / n) F_inc, 1 - the material's
     f_bar_blend (det F_inc_bar = J_bar^alpha J_inc^(1 - alpha)); Q is alpha
     times de Souza Neto's."""
@@ -128,7 +129,7 @@ def evaluate_particles(kinematics, axes, footprint, u, node_index, active, S, G,
                 cell_volume_n[c] += volume_n[p]
                 cell_volume[c] += volume_n[p] * det3(Fi)
     for p in range(n):
-        if cellwise:
+        if cellwise or nodal:            # F_inc already holds the increments (nodal: the caller's)
             copy3(F_inc, p, Fi)
         else:
             _increment(kinematics, dim, nn, u, node_index, active, S, G, radius, p, grad, Fi)

@@ -77,23 +77,38 @@ def mark_cells(order, start, node_index, active, node_ijk, dim, width, mark):
 
 
 @jit
+def box_offsets(half, dim, ghost_x, ghost_y):
+    """(offset, shift) of the box of 2 half + 1 nodes per axis about a node
+    (slots x fastest): each slot's offset from the centre along x, y, z
+    (slots, 3), and its node's offset in the ghosted-local numbering of a
+    box ``ghost_x`` by ``ghost_y`` nodes (slots,)."""
+    side = 2 * half + 1
+    slots = side ** dim
+    offset = np.zeros((slots, 3), dtype=np.int64)
+    shift = np.zeros(slots, dtype=np.int64)
+    gy = ghost_y if dim == 3 else 1
+    for s in range(slots):
+        offset[s, 0] = s % side - half
+        offset[s, 1] = (s // side) % side - half
+        offset[s, 2] = s // (side * side) - half if dim == 3 else 0
+        shift[s] = offset[s, 0] + ghost_x * (offset[s, 1] + gy * offset[s, 2])
+    return offset, shift
+
+
+@jit
 def mark_boxes(centres, presence, half, node_ijk, dim, width, ghost_x, ghost_y, mark):
     """mark[i, slot of j] = True for every pair of nodes (i, j) present in
     the box of 2 half + 1 nodes per axis about one of the ``centres``
     (``presence`` (n_nodes, slots) > 0; the couplings of
     :func:`pimpm.kernels.fbar.node_blocks`)."""
-    side = 2 * half + 1
     slots = presence.shape[1]
     nodes = np.empty(slots, dtype=np.int64)
-    gy = ghost_y if dim == 3 else 1
+    shift = box_offsets(half, dim, ghost_x, ghost_y)[1]
     for centre in centres:
         count = 0
         for s in range(slots):
             if presence[centre, s] > 0.0:
-                dx = s % side - half
-                dy = (s // side) % side - half
-                dz = s // (side * side) - half if dim == 3 else 0
-                nodes[count] = centre + dx + ghost_x * (dy + gy * dz)
+                nodes[count] = centre + shift[s]
                 count += 1
         for a in range(count):
             for b in range(count):
