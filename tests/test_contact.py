@@ -376,6 +376,26 @@ def test_a_frictionless_platen_upsets_the_cylinder_homogeneously():
     assert J_min > 0.994 * J and J_max < 1.006 * J
 
 
+def test_a_frictionless_platen_upsets_the_cylinder_homogeneously_with_the_nodal_f_bar():
+    """The same with F-bar averaged on the nodes (f_bar: nodes): the force
+    within 1.5% of the homogeneous one (measured -0.7%), no barrelling, and
+    particle J within 0.2% of the exact 0.998 (measured 0.9975-0.9989); it
+    cuts a step once on the way (docs/VALIDATION.md)."""
+    sim, stats, rows = _run(f"{REPO}/inputs/upsetting.yaml", ["bodies[1].contact=frictionless",
+                                                              "materials.steel.f_bar=nodes"])
+    assert stats.failure is None and sim.f_bar_average == "nodes"
+    E, nu, h0, h = 2.0e5, 0.3, 15.0, 15.0 - 9.0
+    sigma = 700.0
+    for _ in range(50):                       # sigma = 700 + 300 (ln(h0/h) - sigma/E)
+        sigma = 700.0 + 300.0 * (np.log(h0 / h) - sigma / E)
+    J = 1.0 - (1.0 - 2.0 * nu) * sigma / E
+    exact = sigma * np.pi * 10.0 ** 2 * h0 / h * J
+    assert -rows[-1]["force"][1] == pytest.approx(exact, rel=0.015)
+    mid, upper, (J_min, J_max) = _barrel(sim)
+    assert abs(mid - upper) < 0.5
+    assert J_min > 0.998 * J and J_max < 1.002 * J
+
+
 def _history(out, column):
     with open(out / "history.csv") as f:
         return np.array([[float(r[c]) for c in column] for r in csv.DictReader(f)])
