@@ -170,6 +170,45 @@ def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_t
     return validate(raw)
 
 
+def mirror_config(cells=20, shape="linear", speed=0.01, end_time=8.0, integrator="explicit", dt=None):
+    """The mirror image of :func:`disks_config` with a frictionless pair:
+    the left disk alone, meeting a rigid frictionless wall (a half-space
+    tool, ``contact: frictionless``, found at the particles' domains like
+    the pair) on the symmetry plane x = 0.5 between the two disks. Two equal
+    disks meeting head-on without friction move as each one against that
+    wall, so this is the same impact with an independent contact."""
+    raw = {"grid": {"lower": [0, 0], "upper": [1, 1], "cells": [cells, cells], "shape_functions": shape},
+           "materials": {"elastic": {"model": "neo_hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3,
+                                     "density": 1000.0}},
+           "bodies": [{"name": "left", "material": "elastic", "particles_per_cell": 2, "velocity": [speed, 0],
+                       "geometry": {"type": "ball", "center": [0.275, 0.5], "radius": 0.2}},
+                      {"name": "wall", "rigid": True, "contact": "frictionless", "particles_per_cell": 2,
+                       "geometry": {"type": "half_space", "point": [0.5, 0.5], "normal": [-1.0, 0.0]}}],
+           "time": {"integrator": integrator, "end_time": end_time}}
+    if dt:
+        raw["time"]["dt"] = dt
+    return validate(raw)
+
+
+def disk_against_wall(config, comm=MPI.COMM_WORLD):
+    """Run :func:`mirror_config`'s disk against the wall; returns what
+    :func:`disks` returns of it, for the pair's mirror image: the closest
+    approach of the centres (twice the centre's of the wall), the
+    coefficient of restitution and the total energy after over before."""
+    sim = Simulation(config, comm)
+    energy0 = sim.kinetic_energy() + sim.strain_energy()
+    v0 = body_sums(sim, 0)[1] / body_sums(sim, 0)[0]
+    closest, infos = np.inf, []
+    wall = config["bodies"][1]["geometry"]["point"][0]
+    for info, _ in march(sim, config["time"]["end_time"]):
+        infos.append(info)
+        sums = body_sums(sim, 0)
+        closest = min(closest, 2.0 * (wall - sums[3] / sums[0]))
+    return {"closest": float(closest), "restitution": float(-sums[1] / sums[0] / v0),
+            "energy_ratio": float((info["kinetic_energy"] + info["strain_energy"]) / energy0),
+            "steps": sim.step_index, **newton_counts(infos)}
+
+
 def disks(config, comm=MPI.COMM_WORLD):
     """Run two colliding disks (bodies 0 and 1); returns the largest change
     of the total momentum over the run relative to one disk's initial

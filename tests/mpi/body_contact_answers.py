@@ -20,9 +20,9 @@ if __name__ == "__main__":
 
 from mpi4py import MPI  # noqa: E402
 
-from body_contact_validation import (block_on_plane, block_on_plane_config, disk_on_slope,  # noqa: E402
-                                     disk_on_slope_config, disks, disks_config, stacked_blocks,
-                                     stacked_blocks_config)
+from body_contact_validation import (block_on_plane, block_on_plane_config, disk_against_wall,  # noqa: E402
+                                     disk_on_slope, disk_on_slope_config, disks, disks_config,
+                                     mirror_config, stacked_blocks, stacked_blocks_config)
 
 #: the stack's friction coefficients (floor-a, a-b, b-c): a-b slips
 STACK_MUS = (0.5, 0.1, 0.8)
@@ -44,6 +44,9 @@ for _law, _integrator, _dt in (("friction", "newmark", 1.3e-5), ("friction", "ne
 for _cells in (20, 40):
     CASES[f"disks explicit {_cells}"] = (disks, lambda cells=_cells: disks_config(cells))
 CASES["disks newmark 0.1"] = (disks, lambda: disks_config(20, integrator="newmark", dt=0.1))
+#: the same impact's mirror image, one disk against a rigid frictionless wall: what
+#: the integrator loses of the energy with an independent contact
+CASES["wall newmark 0.1"] = (disk_against_wall, lambda: mirror_config(20, integrator="newmark", dt=0.1))
 for _integrator, _dt in (("explicit", None), ("newmark", 1.4e-3)):
     CASES[f"stack {_integrator}"] = (stacked_blocks, lambda i=_integrator, dt=_dt: stacked_blocks_config(
         0.01, STACK_MUS, end_time=0.15, **_implicit(i, dt)))
