@@ -6,7 +6,7 @@ data, the radius at mid-height and Newton iterations per step; writes
 docs/data/validation_upsetting.json and docs/figures/upsetting.png.
 
     python scripts/upsetting_validation.py [--ranks 2] [--sizes 2 1 0.5]
-        [--shape linear|gimp|bspline] [--no-docs]
+        [--shape linear|gimp|bspline] [--contact bonded|frictionless|friction --mu MU] [--no-docs]
 
 A run that fails (pimpm exits 1 after its step cuts) is reported with the
 reduction it reached. --no-docs prints the table only (docs/ untouched).
@@ -28,7 +28,7 @@ sys.path.insert(0, ROOT)
 from pimpm.measures import midplane_radius               # noqa: E402
 
 
-def case(h, shape=None, f_bar=None):
+def case(h, shape=None, f_bar=None, contact=None, mu=None):
     with open(os.path.join(ROOT, "inputs", "upsetting.yaml")) as f:
         cfg = yaml.safe_load(f)
     cfg = copy.deepcopy(cfg)
@@ -39,14 +39,19 @@ def case(h, shape=None, f_bar=None):
         cfg["grid"]["shape_functions"] = shape
     if f_bar is not None:                  # else the input's own
         cfg["materials"]["steel"]["f_bar"] = f_bar
+    if contact is not None:                # else the input's bonded platen
+        cfg["bodies"][1]["contact"] = contact
+        cfg["bodies"][1].pop("constrain", None)
+        if contact == "friction":
+            cfg["bodies"][1]["friction_coefficient"] = mu
     cfg["output"] = {"directory": "out", "every": 1}
     return cfg
 
 
-def run(h, ranks, workdir, shape=None, f_bar=None):
+def run(h, ranks, workdir, shape=None, f_bar=None, contact=None, mu=None):
     path = os.path.join(workdir, f"upsetting_{h}.yaml")
     with open(path, "w") as f:
-        yaml.safe_dump(case(h, shape, f_bar), f)
+        yaml.safe_dump(case(h, shape, f_bar, contact, mu), f)
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     sub = os.path.join(workdir, f"h{h}")
     os.makedirs(sub, exist_ok=True)
@@ -89,13 +94,18 @@ def main():
                     help="shape functions (default: the input's, linear)")
     ap.add_argument("--f-bar", choices=["on", "off", "cells", "nodes"], default=None,
                     help="F-bar on the steel: on (= cells), off, or what it averages over (default: the input's)")
+    ap.add_argument("--contact", choices=["bonded", "frictionless", "friction"], default=None,
+                    help="the platen's contact law (default: the input's, bonded)")
+    ap.add_argument("--mu", type=float, default=None, help="the friction coefficient of --contact friction")
     ap.add_argument("--no-docs", action="store_true")
     args = ap.parse_args()
+    if (args.contact == "friction") != (args.mu is not None):
+        ap.error("--mu goes with --contact friction, and only with it")
     results = []
     with tempfile.TemporaryDirectory() as workdir:
         for h in args.sizes:
             f_bar = {None: None, "on": True, "off": False}.get(args.f_bar, args.f_bar)
-            results.append(run(h, args.ranks, workdir, args.shape, f_bar))
+            results.append(run(h, args.ranks, workdir, args.shape, f_bar, args.contact, args.mu))
     failed = [r for r in results if r.get("failed")]
     results = [r for r in results if not r.get("failed")]
     for r in failed:
