@@ -11,6 +11,9 @@ compare with them.
   flexibility (Reissner's geometrically exact beam).
 * :func:`heywood_kt`: stress concentration factor of a circular hole in a
   strip under tension (Heywood's fit to Howland's solution).
+* :func:`homogeneous_upsetting`: the frictionless upsetting of a cylinder of
+  linearly hardening J2 material (Sulsky & Kaul 3.2.7 with the platen made
+  frictionless): homogeneous compression.
 """
 import numpy as np
 
@@ -118,3 +121,18 @@ def heywood_kt(diameter, width):
     d/w). Infinite plate: 3."""
     ratio = diameter / width
     return (2.0 + (1.0 - ratio) ** 3) / (1.0 - ratio)
+
+
+def homogeneous_upsetting(height, initial_height=15.0, radius=10.0, yield_stress=700.0, hardening=300.0,
+                          youngs_modulus=2.0e5, poisson_ratio=0.3):
+    """(platen force, J) of a cylinder (``radius``, half height
+    ``initial_height``) compressed homogeneously to half height ``height``
+    by frictionless platens: the axial stress sigma = yield + hardening
+    eps_p with eps_p = ln(h0/h) - sigma/E (solved by fixed point), the
+    volume ratio J = 1 - (1 - 2 nu) sigma / E, and the force sigma x
+    A0 h0 / h x J (the current area)."""
+    sigma = yield_stress
+    for _ in range(50):                       # sigma = yield + hardening (ln(h0/h) - sigma/E)
+        sigma = yield_stress + hardening * (np.log(initial_height / height) - sigma / youngs_modulus)
+    J = 1.0 - (1.0 - 2.0 * poisson_ratio) * sigma / youngs_modulus
+    return sigma * np.pi * radius ** 2 * initial_height / height * J, J

@@ -148,13 +148,8 @@ def newton_counts(infos):
             "cuts": int(sum(i.get("step_cuts", 0) for i in infos))} if any(counts) else {}
 
 
-def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_time=8.0, integrator="explicit",
-                 dt=None):
-    """Two elastic disks (Sulsky & Kaul 3.1.1's, diameter 0.4) colliding
-    head-on along x at 2 x ``speed``, their surfaces 0.05 apart at the start
-    and on a particle-domain boundary at every resolution (centres at 0.275
-    and 0.725): they touch at t = 0.05 / (2 speed). ``law`` None: one shared
-    field."""
+def _disks_raw(cells, shape, speed, end_time, integrator, dt):
+    """The raw input of :func:`disks_config` without a contact pair."""
     raw = {"grid": {"lower": [0, 0], "upper": [1, 1], "cells": [cells, cells], "shape_functions": shape},
            "materials": {"elastic": {"model": "neo_hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3,
                                      "density": 1000.0}},
@@ -165,6 +160,17 @@ def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_t
            "time": {"integrator": integrator, "end_time": end_time}}
     if dt:
         raw["time"]["dt"] = dt
+    return raw
+
+
+def disks_config(cells=20, law="frictionless", shape="linear", speed=0.01, end_time=8.0, integrator="explicit",
+                 dt=None):
+    """Two elastic disks (Sulsky & Kaul 3.1.1's, diameter 0.4) colliding
+    head-on along x at 2 x ``speed``, their surfaces 0.05 apart at the start
+    and on a particle-domain boundary at every resolution (centres at 0.275
+    and 0.725): they touch at t = 0.05 / (2 speed). ``law`` None: one shared
+    field."""
+    raw = _disks_raw(cells, shape, speed, end_time, integrator, dt)
     if law:
         raw["contact"] = [{"bodies": ["left", "right"], "law": law}]
     return validate(raw)
@@ -177,16 +183,9 @@ def mirror_config(cells=20, shape="linear", speed=0.01, end_time=8.0, integrator
     the pair) on the symmetry plane x = 0.5 between the two disks. Two equal
     disks meeting head-on without friction move as each one against that
     wall, so this is the same impact with an independent contact."""
-    raw = {"grid": {"lower": [0, 0], "upper": [1, 1], "cells": [cells, cells], "shape_functions": shape},
-           "materials": {"elastic": {"model": "neo_hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3,
-                                     "density": 1000.0}},
-           "bodies": [{"name": "left", "material": "elastic", "particles_per_cell": 2, "velocity": [speed, 0],
-                       "geometry": {"type": "ball", "center": [0.275, 0.5], "radius": 0.2}},
-                      {"name": "wall", "rigid": True, "contact": "frictionless", "particles_per_cell": 2,
-                       "geometry": {"type": "half_space", "point": [0.5, 0.5], "normal": [-1.0, 0.0]}}],
-           "time": {"integrator": integrator, "end_time": end_time}}
-    if dt:
-        raw["time"]["dt"] = dt
+    raw = _disks_raw(cells, shape, speed, end_time, integrator, dt)
+    raw["bodies"][1] = {"name": "wall", "rigid": True, "contact": "frictionless", "particles_per_cell": 2,
+                        "geometry": {"type": "half_space", "point": [0.5, 0.5], "normal": [-1.0, 0.0]}}
     return validate(raw)
 
 
@@ -197,7 +196,8 @@ def disk_against_wall(config, comm=MPI.COMM_WORLD):
     coefficient of restitution and the total energy after over before."""
     sim = Simulation(config, comm)
     energy0 = sim.kinetic_energy() + sim.strain_energy()
-    v0 = body_sums(sim, 0)[1] / body_sums(sim, 0)[0]
+    start = body_sums(sim, 0)
+    v0 = start[1] / start[0]
     closest, infos = np.inf, []
     wall = config["bodies"][1]["geometry"]["point"][0]
     for info, _ in march(sim, config["time"]["end_time"]):

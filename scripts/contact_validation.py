@@ -22,6 +22,7 @@ from mpi4py import MPI  # noqa: E402
 from pimpm.analysis import Observer, Trace, run_to_end  # noqa: E402
 from pimpm.config import load_config  # noqa: E402
 from pimpm.measures import mean_displacement  # noqa: E402
+from pimpm.reference import homogeneous_upsetting  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 INPUTS = os.path.join(os.path.dirname(HERE), "inputs")
@@ -141,12 +142,7 @@ def onset():
 
 def upsetting():
     out = []
-    E, nu, h0, h = 2.0e5, 0.3, 15.0, 6.0
-    sigma = 700.0
-    for _ in range(50):
-        sigma = 700.0 + 300.0 * (np.log(h0 / h) - sigma / E)
-    J = 1.0 - (1.0 - 2.0 * nu) * sigma / E
-    exact = sigma * np.pi * 100.0 * h0 / h * J
+    exact, J = homogeneous_upsetting(6.0)
     cases = [(2.0, "linear", "frictionless", None), (1.0, "linear", "frictionless", None),
              (0.5, "linear", "frictionless", None), (1.0, "linear", "friction", 0.1),
              (1.0, "linear", "bonded", None)]

@@ -20,6 +20,7 @@ from pimpm.analysis import Observer, Trace, run_to_end  # noqa: E402
 from pimpm.config import ConfigError, load_config, validate  # noqa: E402
 from pimpm.kernels import contact as kernels  # noqa: E402
 from pimpm.measures import mean_displacement  # noqa: E402
+from pimpm.reference import homogeneous_upsetting  # noqa: E402
 
 REPO = os.path.dirname(HERE)
 
@@ -364,12 +365,7 @@ def test_a_frictionless_platen_upsets_the_cylinder_homogeneously():
     0.998, and no step is cut. (The bonded platen gives 1054 kN.)"""
     sim, stats, rows = _run(f"{REPO}/inputs/upsetting.yaml", ["bodies[1].contact=frictionless"])
     assert stats.cuts == 0 and stats.failure is None
-    E, nu, h0, h = 2.0e5, 0.3, 15.0, 15.0 - 9.0
-    sigma = 700.0
-    for _ in range(50):                       # sigma = 700 + 300 (ln(h0/h) - sigma/E)
-        sigma = 700.0 + 300.0 * (np.log(h0 / h) - sigma / E)
-    J = 1.0 - (1.0 - 2.0 * nu) * sigma / E
-    exact = sigma * np.pi * 10.0 ** 2 * h0 / h * J
+    exact, J = homogeneous_upsetting(15.0 - 9.0)
     assert -rows[-1]["force"][1] == pytest.approx(exact, rel=0.015)
     mid, upper, (J_min, J_max) = _barrel(sim)
     assert abs(mid - upper) < 0.5
@@ -384,12 +380,7 @@ def test_a_frictionless_platen_upsets_the_cylinder_homogeneously_with_the_nodal_
     sim, stats, rows = _run(f"{REPO}/inputs/upsetting.yaml", ["bodies[1].contact=frictionless",
                                                               "materials.steel.f_bar=nodes"])
     assert stats.failure is None and sim.f_bar_average == "nodes"
-    E, nu, h0, h = 2.0e5, 0.3, 15.0, 15.0 - 9.0
-    sigma = 700.0
-    for _ in range(50):                       # sigma = 700 + 300 (ln(h0/h) - sigma/E)
-        sigma = 700.0 + 300.0 * (np.log(h0 / h) - sigma / E)
-    J = 1.0 - (1.0 - 2.0 * nu) * sigma / E
-    exact = sigma * np.pi * 10.0 ** 2 * h0 / h * J
+    exact, J = homogeneous_upsetting(15.0 - 9.0)
     assert -rows[-1]["force"][1] == pytest.approx(exact, rel=0.015)
     mid, upper, (J_min, J_max) = _barrel(sim)
     assert abs(mid - upper) < 0.5
