@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernels import fbar as kernels
+from .kernels import particle_step
 
 
 @dataclass
@@ -137,6 +138,16 @@ class AveragedNodes:
         jbar = np.empty(len(node_index))
         kernels.node_average(node_index, active, S, self._marker, J_node, jbar)
         return jbar
+
+    def increments_and_jbar(self, kinematics, u_local, node_index, active, S, G, radius, volume_n, F_inc):
+        """The particles' increments at ``u_local`` (into ``F_inc``, which the
+        particle kernel then reuses) and their J_bar (:meth:`jbar`): the
+        average needs every increment before any particle's stress.
+        Collective."""
+        dim = self.grid.dim
+        particle_step.increments(kinematics, tuple(range(dim)), tuple(range(S.shape[1])), u_local, node_index,
+                                 active, S, G, radius, F_inc)
+        return self.jbar(node_index, active, S, volume_n, F_inc)
 
     def coupling(self, kinematics, node_index, active, S, G, radius, F_inc, fbar_q, volume_n, jbar):
         """(R, D): (n_local_nodes, slots, dim), every rank's shares of R_I and

@@ -84,9 +84,8 @@ class ParticleEvaluation:
         axes, footprint = tuple(range(dim)), tuple(range(st.S.shape[1]))
         self.jbar = _NO_JBAR
         if cells.kind == "nodes":            # the increments first, then their average on the nodes
-            particle_step.increments(st.kinematics.kernel_code, axes, footprint, u_local, st.node_index,
-                                     st.active, st.S, st.G, radius, self.F_inc)
-            self.jbar = cells.jbar(st.node_index, st.active, st.S, st.volume_n, self.F_inc)
+            self.jbar = cells.increments_and_jbar(st.kinematics.kernel_code, u_local, st.node_index, st.active,
+                                                  st.S, st.G, radius, st.volume_n, self.F_inc)
         self.inverted, self.unconverged = particle_step.evaluate_particles(
             st.kinematics.kernel_code, axes, footprint, u_local,
             st.node_index, st.active, st.S, st.G, radius,

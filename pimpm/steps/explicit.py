@@ -95,9 +95,8 @@ class ParticleStress:
         u_local = dt * v_local
         cells, jbar = self.cells, np.zeros(0)
         if cells.kind == "nodes":            # the increments first, then their average on the nodes (collective)
-            particle_step.increments(sim.kinematics.kernel_code, self.axes, self.footprint, u_local,
-                                     self.node_index, self.active, self.S, self.G, self.radius, F_inc)
-            jbar = cells.jbar(self.node_index, self.active, self.S, self.volume, F_inc)
+            jbar = cells.increments_and_jbar(sim.kinematics.kernel_code, u_local, self.node_index, self.active,
+                                             self.S, self.G, self.radius, self.volume, F_inc)
         inverted, unconverged = particle_step.evaluate_particles(
             sim.kinematics.kernel_code, self.axes, self.footprint, u_local, self.node_index,
             self.active, self.S, self.G, self.radius, p["F"], self.volume, table.only_model, table.models,
