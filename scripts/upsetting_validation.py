@@ -6,7 +6,7 @@ data, the radius at mid-height and Newton iterations per step; writes
 docs/data/validation_upsetting.json and docs/figures/upsetting.png.
 
     python scripts/upsetting_validation.py [--ranks 2] [--sizes 2 1 0.5]
-        [--shape linear|gimp|bspline] [--contact bonded|frictionless|friction --mu MU] [--no-docs]
+        [--shape linear|gimp|bspline] [--contact bonded|frictionless|friction|tied --mu MU] [--no-docs]
 
 A run that fails (pimpm exits 1 after its step cuts) is reported with the
 reduction it reached. --no-docs prints the table only (docs/ untouched).
@@ -39,7 +39,7 @@ def case(h, shape=None, f_bar=None, contact=None, mu=None):
         cfg["grid"]["shape_functions"] = shape
     if f_bar is not None:                  # else the input's own
         cfg["materials"]["steel"]["f_bar"] = f_bar
-    if contact is not None:                # else the input's bonded platen
+    if contact is not None:                # else the input's tied platen
         cfg["bodies"][1]["contact"] = contact
         cfg["bodies"][1].pop("constrain", None)
         if contact == "friction":
@@ -91,11 +91,11 @@ def main():
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--sizes", type=float, nargs="+", default=[2.0, 1.0, 0.5])
     ap.add_argument("--shape", default=None, choices=["linear", "gimp", "bspline"],
-                    help="shape functions (default: the input's, linear)")
+                    help="shape functions (default: the input's, GIMP)")
     ap.add_argument("--f-bar", choices=["on", "off", "cells", "nodes"], default=None,
                     help="F-bar on the steel: on (= cells), off, or what it averages over (default: the input's)")
-    ap.add_argument("--contact", choices=["bonded", "frictionless", "friction"], default=None,
-                    help="the platen's contact law (default: the input's, bonded)")
+    ap.add_argument("--contact", choices=["bonded", "frictionless", "friction", "tied"], default=None,
+                    help="the platen's contact law (default: the input's, tied)")
     ap.add_argument("--mu", type=float, default=None, help="the friction coefficient of --contact friction")
     ap.add_argument("--no-docs", action="store_true")
     args = ap.parse_args()

@@ -69,6 +69,7 @@ def test_contact_pairs_are_normalized():
     ([{"bodies": ["a", "tool"], "law": "frictionless"}], "contact[0].bodies[1]", "its own 'contact' key"),
     ([{"bodies": ["a", "b"]}], "contact[0].law", "bonded, frictionless, friction"),
     ([{"bodies": ["a", "b"], "law": "sticky"}], "contact[0].law", "bonded"),
+    ([{"bodies": ["a", "b"], "law": "tied"}], "contact[0].law", "one of bonded, frictionless, friction"),
     ([{"bodies": ["a", "b"], "law": "friction"}], "contact[0].friction_coefficient", "a number >= 0"),
     ([{"bodies": ["a", "b"], "law": "friction", "friction_coefficient": -0.1}],
      "contact[0].friction_coefficient", "a number >= 0"),

@@ -156,7 +156,7 @@ def _check_contact(config):
             continue
         if time["formulation"] != "velocity":
             raise ConfigError(f"bodies[{i}].contact = {law!r}: expected bonded with "
-                              f"time.formulation: {time['formulation']} (frictionless and friction "
+                              f"time.formulation: {time['formulation']} (frictionless, friction and tied "
                               "contact need the velocity formulation)", path=f"bodies[{i}].contact")
 
 

@@ -12,7 +12,7 @@ from .checks import (ConfigError, _MISSING, _Section, _bool, _choices, _enum, _f
     _fail_missing, _float, _float_vector, _fmt, _int, _is_int, _join, _name, _ordered_bounds, _positive, _string)
 from .functions import _function_ref
 from .schema import (AXES, BBOX_RELATIVE_TOLERANCE, BODY_KEYS, DEFAULT_PARTICLES_PER_CELL,
-    CONTACT_GEOMETRIES, CONTACT_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
+    CONTACT_GEOMETRIES, TOOL_LAWS, DEFAULT_CONTACT_STIFFNESS, DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS, DEFAULT_PARTICLES_PER_ELEMENT, ELASTIC_KEYS, FILE_GEOMETRIES, GEOMETRY_KEYS, GEOMETRY_TYPES, MATERIAL_KEYS, MATERIAL_MODELS,
     MODEL_PARAMETER_KEYS, RIGID_ONLY_GEOMETRIES, F_BAR_AVERAGES)
 
 
@@ -342,14 +342,14 @@ FRICTION_KEYS = ("slip_tolerance", "tangential_stiffness")
 def _validate_contact(sec, rigid, constrain, dim):
     """A rigid body's contact law (pimpm.contact): ``contact`` (bonded by
     default), ``friction_coefficient`` (friction only) and
-    ``contact_stiffness`` (frictionless and friction), ``slip_tolerance``
+    ``contact_stiffness`` (frictionless, friction and tied), ``slip_tolerance``
     and ``tangential_stiffness`` (friction only)."""
     for key in ("contact", "friction_coefficient", "contact_stiffness") + FRICTION_KEYS:
         if sec.has(key) and not rigid:
             _fail(sec.sub(key), sec.data[key], f"no '{key}' on a deformable body (a contact law is "
                                                "a rigid body's, with rigid: true)")
     law = sec.optional("contact")
-    law = "bonded" if law is _MISSING else _enum(law, sec.sub("contact"), CONTACT_LAWS)
+    law = "bonded" if law is _MISSING else _enum(law, sec.sub("contact"), TOOL_LAWS)
     if not rigid:
         return {}
     out = {"contact": law}
@@ -368,12 +368,17 @@ def _validate_contact(sec, rigid, constrain, dim):
     elif mu is not _MISSING:
         _fail(sec.sub("friction_coefficient"), mu, f"no friction_coefficient with contact: {law} "
                                                    "(it applies only with contact: friction)")
+    if law == "tied":
+        value = sec.optional("tangential_stiffness")
+        out["tangential_stiffness"] = DEFAULT_TANGENTIAL_STIFFNESS if value is _MISSING else \
+            _positive(value, sec.sub("tangential_stiffness"))
     for key in FRICTION_KEYS:
-        if law != "friction" and sec.has(key):
+        if law != "friction" and sec.has(key) and not (law == "tied" and key == "tangential_stiffness"):
+            laws = "friction or tied" if key == "tangential_stiffness" else "friction"
             _fail(sec.sub(key), sec.data[key], f"no {key} with contact: {law} "
-                                               "(it applies only with contact: friction)")
+                                               f"(it applies only with contact: {laws})")
     stiffness = sec.optional("contact_stiffness")
-    if law in ("frictionless", "friction"):
+    if law in ("frictionless", "friction", "tied"):
         out["contact_stiffness"] = DEFAULT_CONTACT_STIFFNESS if stiffness is _MISSING else \
             _positive(stiffness, sec.sub("contact_stiffness"))
         if sec.has("constrain") and list(constrain) != list(AXES[:dim]):
@@ -381,7 +386,7 @@ def _validate_contact(sec, rigid, constrain, dim):
                   "(the contact law sets what the tool holds; constrain is bonded contact's)")
     elif stiffness is not _MISSING:
         _fail(sec.sub("contact_stiffness"), stiffness, f"no contact_stiffness with contact: {law} "
-                                                       "(it applies to frictionless and friction)")
+                                                       "(it applies to frictionless, friction and tied)")
     return out
 
 

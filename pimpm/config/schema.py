@@ -58,10 +58,15 @@ DEFAULT_F_BAR_BLEND = {"cells": 0.0, "nodes": 0.1}
 BODY_KEYS = ("name", "material", "rigid", "geometry", "particles_per_cell",
              "velocity", "function", "constrain", "contact", "friction_coefficient",
              "contact_stiffness", "slip_tolerance", "tangential_stiffness")
-#: how a rigid body meets the material (pimpm.contact): bonded (it prescribes
+#: how bodies in a contact pair meet (pimpm.terms.pairs): bonded (one velocity
+#: field), frictionless or friction (Coulomb friction with friction_coefficient)
+CONTACT_LAWS = ("bonded", "frictionless", "friction")
+#: how a rigid body meets the material (pimpm.terms): bonded (it prescribes
 #: the nodes its particles touch), frictionless or friction (unilateral
 #: contact at the body's surface, Coulomb friction with friction_coefficient)
-CONTACT_LAWS = ("bonded", "frictionless", "friction")
+#: or tied (welded at the body's surface from the first touch: it pulls as
+#: well as pushes and never slides)
+TOOL_LAWS = CONTACT_LAWS + ("tied",)
 #: the contact penalty per unit area is contact_stiffness x (largest P-wave modulus) / h
 DEFAULT_CONTACT_STIFFNESS = 100.0
 #: Coulomb's law regularized (pimpm.kernels.contact.contact_point): a sticking point's

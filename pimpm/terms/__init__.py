@@ -4,7 +4,7 @@
 * :mod:`.bonded`: a rigid body bonded to the material (it prescribes the
   nodes its particles touch).
 * :mod:`.contact`: a rigid tool in unilateral contact with the material,
-  frictionless or with Coulomb friction.
+  frictionless or with Coulomb friction, or tied to it at its surface.
 
 :func:`make_terms` builds a run's terms from its input."""
 from .base import NodalTerm, StepContext
@@ -15,7 +15,8 @@ from .contact import ContactTool
 RIGID_TERMS = {"bonded": lambda i, body, config, functions:
                BondedRigidBody.from_config(i, body, config["dim"], functions),
                "frictionless": ContactTool.from_config,
-               "friction": ContactTool.from_config}
+               "friction": ContactTool.from_config,
+               "tied": ContactTool.from_config}
 
 
 def make_terms(config, functions):

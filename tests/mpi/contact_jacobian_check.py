@@ -7,10 +7,11 @@ unilateral contact (pimpm.terms.contact), run under mpiexec.
 the cap on the tangential stiffness, so that every sticking corner's
 stiffness is mu p / stick; by default most pressing corners are capped).
 
-A block under gravity is pressed by a tool (LAW: frictionless or friction;
+A block under gravity is pressed by a tool (LAW: frictionless, friction or tied;
 GEOMETRY: box, ball, half_space or surface (the ball as a polygon or
 polyhedron), the half-space inclined and moving sideways too) for two steps (without friction), then with friction and a
-random elastic slip carried in from the last step; at the next step's
+random elastic slip carried in from the last step (tied: the tool moved so that
+half of the corners it holds pull); at the next step's
 Newton guess the assembled tangent (COO, all ranks' shares summed) is
 compared with central differences of the residual over the free dofs, and
 the matrix-free product with the assembled one. Prints the errors and the
@@ -86,7 +87,7 @@ term = sim.contact_tools[0]
 term.friction = False
 for _ in range(2):
     sim.advance(0.02)
-term.friction = law == "friction"
+term.friction = law in ("friction", "tied")
 rng = np.random.default_rng(7 + comm.rank)
 state, _ = implicit_step.prepare(sim, 0.02)
 solver, problem = sim.solver, sim.problem
@@ -97,7 +98,19 @@ X = solver.X.duplicate()
 X.getArray()[:] = np.where(state.fixed, state.fixed_value, state.predictor())
 R = solver.R.duplicate()
 term._holding = False          # the exact tangent (not the first iteration's held corners)
-if term.friction:
+if law == "tied":
+    # the tool moved along y so that half of the corners it holds at the guess pull
+    # (those above the median gap) and half press, and a random elastic slip carried in
+    problem.form_residual(None, X, R)
+    held = term._local["status"] == 1
+    gap = np.concatenate(comm.allgather(-term._local["pressure"][held] / term.kn))
+    term._increment[dim - 1] -= float(np.median(gap))
+    term.begin_newton(state)   # the corners' areas on the moved tool
+    history = term._cand["history"]
+    history[:] = 1e-3 * rng.standard_normal(history.shape)
+    term._history[term._candidates] = history
+    term._u = None
+elif term.friction:
     # a random elastic slip carried into the step, about each pressing corner's stick
     # limit at the guess (so that corners stick and slip), and unless ``uncapped`` a cap
     # on the tangential stiffness that half of them reach (mu p > kt stick)
@@ -119,6 +132,7 @@ problem.form_jacobian(None, X, solver.J, solver.J)
 status = term._local["status"]
 capped = (status == 1) & (term.mu * term._local["pressure"] > term.kt * term.stick)
 states = comm.allreduce(np.array([np.sum(status == k) for k in range(3)] + [np.sum(capped)]))
+pulling = comm.allreduce(int(np.sum((status == 1) & (term._local["pressure"] < 0.0))))
 # the central differences, and the matrix-free product and diagonal (pimpm.implicit.shell)
 relative, shell_error, diagonal_error = tangent_errors(sim.grid, problem, sim.terms, sim.config["solver"],
                                                        state, X, R, solver.J, comm)
@@ -126,8 +140,10 @@ if comm.rank == 0:
     print(f"contact jacobian {dim}d {law} {geometry} {integrator} {kinematics} {shape} ranks {comm.size}: "
           f"relative error {relative:.3e}, "
           f"shell {shell_error:.3e} (diagonal {diagonal_error:.3e}), corners open/stick/slip {states[:3].tolist()} "
-          f"(sticking with the capped stiffness {states[3]})")
+          f"(sticking with the capped stiffness {states[3]}, pulling {pulling})")
 ok = relative < 1e-5 and shell_error < 1e-12 and states[1] + states[2] > 0
 if law == "friction" and geometry == "box":   # stick (capped and not, as asked) and slip are checked
     ok = ok and states[1] > 0 and states[2] > 0 and (states[3] == 0 if uncapped else 0 < states[3] < states[1])
+if law == "tied":              # tied corners that press and that pull are checked
+    ok = ok and pulling > 0 and states[1] > pulling
 sys.exit(0 if ok else 1)
