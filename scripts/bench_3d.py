@@ -22,7 +22,7 @@ peak resident memory of the largest rank, particles) and writes JSON.
 
     python scripts/bench_3d.py [--sizes 2 1 0.5] [--ranks 2] [--repeats 1]
         [--variants default per-iteration] [--baseline 89dbf38] [--max-steps N]
-        [--json docs/data/bench_3d.json]
+        [--contact bonded|tied] [--json docs/data/bench_3d.json]
 """
 import argparse
 import csv
@@ -122,8 +122,12 @@ def main():
     ap.add_argument("--variants", nargs="+", default=["default", "per-iteration"], choices=list(OPTIONS))
     ap.add_argument("--baseline", default="89dbf38", help="the commit the `baseline` variant runs")
     ap.add_argument("--max-steps", type=int, default=None)
+    ap.add_argument("--contact", default=None, choices=["bonded", "tied"],
+                    help="the platen's contact law in this tree's runs (default: the input's, tied; "
+                         "the baseline runs its own input)")
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
+    contact = [] if args.contact is None else ["--set", f"bodies[1].contact={args.contact}"]
     trees = {v: (worktree(args.baseline) if v == "baseline" else ROOT) for v in args.variants}
     results = []
     with tempfile.TemporaryDirectory() as scratch:
@@ -138,7 +142,8 @@ def main():
                 for _ in range(args.repeats):
                     for v in args.variants:
                         out = os.path.join(scratch, v)
-                        runs[v].append(run(trees[v], OPTIONS[v], size, ranks, end_time, out))
+                        extra = contact if v != "baseline" else []
+                        runs[v].append(run(trees[v], extra + OPTIONS[v], size, ranks, end_time, out))
                 for v in args.variants:
                     median = {k: (statistics.median([r[k] for r in runs[v]])
                                   if isinstance(runs[v][0][k], float) and all(r[k] is not None for r in runs[v])
