@@ -188,8 +188,8 @@ class ContactTool(NodalTerm):
         self._held = self._touching[c].copy()        # (its status then: STICK or SLIP)
         if self.tied:       # a tied tool holds the corners that touch it at the start of the step too
             gap = np.empty(n * corners)
-            kernels.point_distances(self.kind, self.params, (x[:, None, :] + offsets - self.offset).reshape(-1, self.dim),
-                                    gap)
+            at_start = (x[:, None, :] + offsets - self.offset).reshape(-1, self.dim)
+            kernels.point_distances(self.kind, self.params, at_start, gap)
             self._held[gap.reshape(n, corners) <= self.stick] = kernels.STICK
         self._holding = bool(np.any(self._held))
 
