@@ -335,16 +335,17 @@ def _validate_body(value, path, dim, materials, grid, functions=None, base_dir=N
             "constrain": constrain, **contact}
 
 
-#: the keys of Coulomb's law's regularization (contact: friction only)
-FRICTION_KEYS = ("slip_tolerance", "tangential_stiffness")
+#: the keys of the contact laws' regularization: each one's default and the laws that take it
+REGULARIZATION_KEYS = {"slip_tolerance": (DEFAULT_SLIP_TOLERANCE, ("friction",)),
+                       "tangential_stiffness": (DEFAULT_TANGENTIAL_STIFFNESS, ("friction", "tied"))}
 
 
 def _validate_contact(sec, rigid, constrain, dim):
     """A rigid body's contact law (pimpm.contact): ``contact`` (bonded by
     default), ``friction_coefficient`` (friction only) and
     ``contact_stiffness`` (frictionless, friction and tied), ``slip_tolerance``
-    and ``tangential_stiffness`` (friction only)."""
-    for key in ("contact", "friction_coefficient", "contact_stiffness") + FRICTION_KEYS:
+    (friction only) and ``tangential_stiffness`` (friction and tied)."""
+    for key in ("contact", "friction_coefficient", "contact_stiffness") + tuple(REGULARIZATION_KEYS):
         if sec.has(key) and not rigid:
             _fail(sec.sub(key), sec.data[key], f"no '{key}' on a deformable body (a contact law is "
                                                "a rigid body's, with rigid: true)")
@@ -362,23 +363,18 @@ def _validate_contact(sec, rigid, constrain, dim):
         if mu < 0.0:
             _fail(sec.sub("friction_coefficient"), sec.data["friction_coefficient"], expected)
         out["friction_coefficient"] = mu
-        for key, default in zip(FRICTION_KEYS, (DEFAULT_SLIP_TOLERANCE, DEFAULT_TANGENTIAL_STIFFNESS)):
-            value = sec.optional(key)
-            out[key] = default if value is _MISSING else _positive(value, sec.sub(key))
     elif mu is not _MISSING:
         _fail(sec.sub("friction_coefficient"), mu, f"no friction_coefficient with contact: {law} "
                                                    "(it applies only with contact: friction)")
-    if law == "tied":
-        value = sec.optional("tangential_stiffness")
-        out["tangential_stiffness"] = DEFAULT_TANGENTIAL_STIFFNESS if value is _MISSING else \
-            _positive(value, sec.sub("tangential_stiffness"))
-    for key in FRICTION_KEYS:
-        if law != "friction" and sec.has(key) and not (law == "tied" and key == "tangential_stiffness"):
-            laws = "friction or tied" if key == "tangential_stiffness" else "friction"
+    for key, (default, laws) in REGULARIZATION_KEYS.items():
+        value = sec.optional(key)
+        if law in laws:
+            out[key] = default if value is _MISSING else _positive(value, sec.sub(key))
+        elif value is not _MISSING:
             _fail(sec.sub(key), sec.data[key], f"no {key} with contact: {law} "
-                                               f"(it applies only with contact: {laws})")
+                                               f"(it applies only with contact: {' or '.join(laws)})")
     stiffness = sec.optional("contact_stiffness")
-    if law in ("frictionless", "friction", "tied"):
+    if law != "bonded":
         out["contact_stiffness"] = DEFAULT_CONTACT_STIFFNESS if stiffness is _MISSING else \
             _positive(stiffness, sec.sub("contact_stiffness"))
         if sec.has("constrain") and list(constrain) != list(AXES[:dim]):

@@ -19,6 +19,7 @@ from ..kernels import stress as stress_kernels
 from ..kernels import transfer as transfer_kernels
 from ..materials import tensors
 from ..stages import log_stage
+from ..terms.base import moves_free_dofs
 from ..terms.pairs import FieldContact
 from ..transfer import grid_to_particle
 
@@ -151,12 +152,11 @@ def initial_guess(sim, state):
     makes one (``solver.linear_predictor``; not with contact tools, whose
     predictor is their own)."""
     guess = np.where(state.fixed, state.fixed_value, state.predictor())
-    if sim.solver.plan.linear_predictor and not any(term.couples_particles for term in sim.terms):
-        moving = np.where(state.fixed, 0.0, guess)
-        if not sim.comm.allreduce(bool(np.any(moving != 0.0))):
-            linear = sim.solver.linear_predictor(state, guess)
-            if linear is not None and not sim.problem.inverts(state, linear):
-                return linear
+    if (sim.solver.plan.linear_predictor and not any(term.couples_particles for term in sim.terms)
+            and not moves_free_dofs(guess, state.fixed, sim.comm)):      # (the same test on every rank first)
+        linear = sim.solver.linear_predictor(state, guess)
+        if linear is not None and not sim.problem.inverts(state, linear):
+            return linear
     corrected = _corrected(sim, state, guess)
     if corrected is not guess and not sim.problem.inverts(state, corrected):
         return corrected                     # (its residual is Newton's first: evaluated once)

@@ -33,6 +33,15 @@ term of the run at the same places:
 
 The force a prescribing term exerts on the material is the reaction on the
 dofs it prescribes (:meth:`pimpm.bc.Constraints.reactions`)."""
+import numpy as np
+
+
+def moves_free_dofs(guess, fixed, comm):
+    """Whether the step's Newton guess (owned dofs) moves any free dof on
+    any rank: False for a body at rest when a tool starts to move.
+    Collective."""
+    return comm.allreduce(bool(np.any(np.where(fixed, 0.0, guess) != 0.0)))
+
 
 class StepContext:
     """What a term sees of the step being set up: the grid, the shape

@@ -30,7 +30,7 @@ from .. import surfaces
 from ..errors import StepFailed
 from ..functions import ONE, lookup
 from ..kernels import contact as kernels
-from .base import NodalTerm
+from .base import NodalTerm, moves_free_dofs
 
 #: the particle fields the contact of tool ``i`` carries: each corner's elastic
 #: slip, and whether it was in contact at the end of the last step
@@ -294,10 +294,8 @@ class ContactTool(NodalTerm):
         the 0.5 mm 3D upsetting's first step then took one cut, not two.
         Keeping every step's guess cut fewer steps there too, but the 0.25
         mm axisymmetric upsetting then failed at 59.6%. Collective."""
-        if self.tied:
-            moving = np.where(fixed, 0.0, u_owned)
-            if not self._comm.allreduce(bool(np.any(moving != 0.0))):
-                return u_owned
+        if self.tied and not moves_free_dofs(u_owned, fixed, self._comm):
+            return u_owned
         state, W, offsets, area = self._step
         moved = np.zeros((grid.n_local_nodes, self.dim))
         weight = np.zeros(grid.n_local_nodes)
