@@ -338,6 +338,25 @@ def test_a_tied_plate_holds_the_square_in_compression_and_tension_exactly():
     assert rows[-1]["stress_yy"] == pytest.approx(0.5 * 1.0e6 * (1.0625 ** 2 - 1) / 1.0625, rel=0.01)
 
 
+def test_a_tied_platens_first_step_from_rest_is_the_held_corners_linear_response():
+    """The 3D upsetting at 1 mm cells, its tied platen moving half a cell in
+    the first step onto the cylinder at rest: Newton starts from the
+    linearized response to the motion of the corners the platen holds
+    (ContactTool.predict). The platen then reaches past corners inside the
+    cylinder, a third of a cell below its top; pressed by the penalty too,
+    they crushed the top cell layer in that response (a particle to J =
+    0.12, nodes a cell below the platen moving 0.4 mm up) and the step was
+    cut. Now: no cut, and the load that two steps of half the size
+    reach (measured: 0.7% apart, the step's own error)."""
+    case = ["grid.cells=[24,24,18]", "time.end_time=5e-4", "output.every=100000"]
+    sim, stats, rows = _run(f"{REPO}/inputs/upsetting_3d.yaml", case + ["time.dt=5e-4"])
+    assert stats.cuts == 0 and stats.failure is None and len(rows) == 1
+    assert rows[0]["newton"] <= 6
+    sim, stats, halves = _run(f"{REPO}/inputs/upsetting_3d.yaml", case + ["time.dt=2.5e-4"])
+    assert stats.cuts == 0 and len(halves) == 2
+    assert rows[0]["force"][2] == pytest.approx(halves[-1]["force"][2], rel=0.015)
+
+
 @pytest.mark.parametrize("integrator", ["backward_euler", "explicit"])
 def test_a_block_hangs_from_a_tied_ceiling(integrator):
     """The block of the ramp benchmark on a tied floor, with gravity turned

@@ -143,6 +143,7 @@ class ContactTool(NodalTerm):
         self._depth = particles[self.depth_field]
         self._step = None
         self._u = None
+        self._rest_start = None      # the guess of a tied tool's start from rest (:meth:`predict`)
 
     def begin_newton(self, state):
         """The candidates (the particles whose domains can reach the tool
@@ -201,6 +202,9 @@ class ContactTool(NodalTerm):
         if applied is None and self._u is not None and np.array_equal(self._u, u_local):
             return self._local
         state, W, offsets, area = self._step
+        if self._rest_start is not None and np.array_equal(u_local, self._rest_start):
+            # a tied tool's start from rest: the held corners alone (:meth:`predict`)
+            area = np.where(self._held != kernels.OPEN, area, 0.0)
         n, corners = area.shape
         force = np.zeros((self._grid.n_local_nodes, self.dim))
         D = np.empty((n, corners, self.dim, self.dim))
@@ -287,14 +291,22 @@ class ContactTool(NodalTerm):
         at 2 mm with linear shape functions failed; the plate that lets go
         at 0.05 m and dt = 0.5 took a cut). A tied tool keeps a guess that
         moves no free dof (a body at rest): Newton's first iterate from it is
-        the body's linearized response to the tool's motion (the tied law is
-        linear at a held corner), as the bonded tools' linear predictor
+        the body's linearized response to the held corners' motion (the tied
+        law is linear at a held corner), as the bonded tools' linear predictor
         (:meth:`pimpm.solver.NewtonSolver.linear_predictor`), where the
         push-out put the whole increment into the cell layer under the tool:
-        the 0.5 mm 3D upsetting's first step then took one cut, not two.
+        the 0.5 mm 3D upsetting's first step then took one cut, not two
+        (and none once only the held corners count at that guess). At that guess only the held corners are in contact (:meth:`_evaluate`):
+        the tool has moved past the corners inside the body below them by
+        up to its travel, and their penalty crushed the layer under it (the
+        1 mm 3D upsetting, half a cell of travel: nodes a cell below the
+        platen moved 0.4 mm up, a particle to J = 0.12, and the step was cut;
+        with the held corners alone no cut up to a whole cell).
         Keeping every step's guess cut fewer steps there too, but the 0.25
         mm axisymmetric upsetting then failed at 59.6%. Collective."""
         if self.tied and not moves_free_dofs(u_owned, fixed, self._comm):
+            self._rest_start = grid.owned_to_local(u_owned)
+            self._u = None
             return u_owned
         state, W, offsets, area = self._step
         moved = np.zeros((grid.n_local_nodes, self.dim))
