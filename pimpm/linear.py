@@ -115,6 +115,63 @@ def _with_prescribed(A, b, free, x_free, x):
     x.setArray(out)
 
 
+class FreeDofsOperator:
+    """Context of a ``python`` Mat: the Newton matrix of a step that
+    :class:`FreeDofsKSP` solves, held as what that solver needs of it. The
+    whole matrix has its prescribed rows and columns eliminated (each
+    prescribed row holds only its diagonal, ``diagonal``), so it is the free
+    dofs' matrix (``free_matrix``, ``free``: the owned dofs' mask) beside a
+    diagonal, and its product and diagonal are those. Assembling the whole
+    grid's matrix as well cost a COO preallocation a step, a second
+    MatSetValuesCOO every Newton iteration and its memory (docs/PERFORMANCE.md,
+    "3D at 0.5 mm"). :meth:`whole` assembles it on demand (the
+    finite-difference checks of the tests)."""
+
+    def __init__(self, free_matrix, free, make_whole):
+        self.free_matrix = free_matrix
+        self.free = np.asarray(free, dtype=bool)
+        self.diagonal = 1.0             # the prescribed rows' diagonal (:meth:`update`)
+        self.values = None              # the last Jacobian's COO values (:meth:`whole`)
+        self._make_whole = make_whole
+        self.x, self.y = free_matrix.createVecs()
+
+    def update(self, values, diagonal):
+        """The Newton iteration's values (the whole matrix's COO values, which
+        the free matrix got too) and the prescribed rows' diagonal."""
+        self.values, self.diagonal = values, diagonal
+
+    def _apply(self, x, y, transpose):
+        xa = x.getArray(readonly=True)
+        out = np.empty_like(xa)
+        out[~self.free] = self.diagonal * xa[~self.free]
+        self.x.setArray(xa[self.free])
+        (self.free_matrix.multTranspose if transpose else self.free_matrix.mult)(self.x, self.y)
+        out[self.free] = self.y.getArray(readonly=True)
+        y.setArray(out)
+
+    def mult(self, mat, x, y):
+        self._apply(x, y, False)
+
+    def multTranspose(self, mat, x, y):
+        self._apply(x, y, True)
+
+    def getDiagonal(self, mat, d):
+        free_diagonal = self.free_matrix.getDiagonal()
+        out = np.full(len(self.free), self.diagonal)
+        out[self.free] = free_diagonal.getArray(readonly=True)
+        free_diagonal.destroy()
+        d.setArray(out)
+
+    def whole(self):
+        """The whole grid's matrix, assembled from the last Newton
+        iteration's values (a new Mat the caller destroys). Collective."""
+        return self._make_whole(self.values)
+
+    def release(self):
+        for vec in (self.x, self.y):
+            vec.destroy()
+
+
 #: the lagged solves' relative tolerance (on the true residual) and iteration
 #: limit; a solve that does not converge within the limit factorizes anew.
 #: An inexact Newton step (Dembo, Eisenstat & Steihaug 1982): each Newton

@@ -17,7 +17,7 @@ from petsc4py import PETSc
 from .convergence import GuilkeyWeissTest
 from . import presets
 from .line_search import FullStepFirst
-from .linear import FallbackKSP, FreeDofsKSP, rigid_body_near_null_space
+from .linear import FallbackKSP, FreeDofsKSP, FreeDofsOperator, rigid_body_near_null_space
 from .stages import log_stage
 
 
@@ -287,19 +287,32 @@ class NewtonSolver:
             self.fallback.set_free(~state.fixed)
         if not self.on_pattern:
             return
-        J = self.problem.create_jacobian(False, state.pattern)
-        self._set_matrix_options(J)
+        free_matrix = None
         if self.free_dofs is not None:
             free = ~state.fixed
             free_matrix = self.problem.create_free_jacobian(state.pattern, free)
             self._set_matrix_options(free_matrix, whole_grid=False)
             self.free_dofs.set_matrix(free_matrix, free)
+        if free_matrix is not None and not self._mf_operator():
+            # the direct solver needs the free dofs' matrix alone: the whole one is not assembled
+            J = self.problem.create_free_dofs_operator(free_matrix, free)
+        else:
+            J = self.problem.create_jacobian(False, state.pattern)
+        self._set_matrix_options(J)
         if self._mf_operator():       # the operator stays the finite-difference one
             self.snes.setJacobian(self.problem.form_jacobian, None, J)
         else:
             self.snes.setJacobian(self.problem.form_jacobian, J, J)
-        self.J.destroy()
+        _destroy_matrix(self.J)
         self.J = J
+
+    def whole_jacobian(self):
+        """The step's Newton matrix over the whole grid, assembled (as the last
+        Jacobian left it): ``J`` itself, or made from the free dofs' operator's
+        values (a new Mat: destroy it). For checks; collective."""
+        if self.J.getType() == PETSc.Mat.Type.PYTHON and isinstance(self.J.getPythonContext(), FreeDofsOperator):
+            return self.J.getPythonContext().whole()
+        return self.J
 
     def destroy(self):
         """Free the PETSc objects now (collective); Python contexts held by
@@ -322,7 +335,8 @@ class NewtonSolver:
         outer = self.snes.getKSP()
         if outer.getType() == PETSc.KSP.Type.PYTHON:
             outer.setType(PETSc.KSP.Type.PREONLY)
-        for obj in (self.snes, self.J, self.X, self.R):
+        _destroy_matrix(self.J)
+        for obj in (self.snes, self.X, self.R):
             obj.destroy()
         self.problem.destroy()
 
@@ -498,6 +512,13 @@ def command_line_options():
     """PETSc's options database as {name: value} (no dash): the command
     line, and whatever a caller has put there."""
     return {k: ("" if v is None or v is True else str(v)) for k, v in PETSc.Options().getAll().items()}
+
+
+def _destroy_matrix(J):
+    """Destroy ``J`` and the vectors of a free dofs' operator it holds."""
+    if J.getType() == PETSc.Mat.Type.PYTHON and isinstance(J.getPythonContext(), FreeDofsOperator):
+        J.getPythonContext().release()
+    J.destroy()
 
 
 def diagonal_matrix(da):

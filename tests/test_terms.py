@@ -72,7 +72,8 @@ def test_a_terms_force_and_derivative_join_the_tangent_assembled_and_matrix_free
     R = solver.R.duplicate()
     problem.form_residual(None, X, R)
     problem.form_jacobian(None, X, solver.J, solver.J)
-    J = solver.J.convert("dense").getDenseArray().copy()
+    whole = solver.whole_jacobian()
+    J = whole.convert("dense").getDenseArray().copy()
     free = np.flatnonzero(~state.fixed)
     h = 1e-6
     J_fd = np.zeros((len(u), len(free)))

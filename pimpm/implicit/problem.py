@@ -17,6 +17,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import coo, faults, fbar, interrupt
+from ..linear import FreeDofsOperator
 from ..kernels import fbar as fbar_kernels
 from ..kernels import particle_step
 from ..materials.model import youngs_modulus
@@ -305,11 +306,42 @@ class StepProblem:
         # whenever a numpy view of getArray() happens to be released
         R.setArray(r)
 
+    def create_free_dofs_operator(self, free_matrix, free):
+        """The step's Newton matrix as its free dofs' matrix ``free_matrix``
+        and the prescribed rows' diagonal (:class:`pimpm.linear.FreeDofsOperator`),
+        for a direct solver on the free dofs: the whole grid's matrix is not
+        assembled. Collective."""
+        grid, pattern = self.grid, self.state.pattern
+
+        def whole(values):
+            J = pattern_matrix(grid, pattern, use_coo=True)
+            coo.set_values(J, values)
+            return J
+
+        X = grid.da.createGlobalVec()
+        sizes = (X.getLocalSize(), X.getSize())
+        X.destroy()
+        context = FreeDofsOperator(free_matrix, free, whole)
+        J = PETSc.Mat().createPython((sizes, sizes), context=context, comm=grid.da.getComm())
+        J.setUp()
+        return J
+
     def form_jacobian(self, snes, X, J, P):
         st = self.state
         grid = self.grid
         u_local = grid.vec_to_local(X)
         evaluation = self.evaluate(X.getArray(readonly=True), u_local)
+        free_operator = (P.getPythonContext() if P.getType() == PETSc.Mat.Type.PYTHON
+                         and isinstance(P.getPythonContext(), FreeDofsOperator) else None)
+        if free_operator is not None:       # the free dofs' matrix alone (pimpm.linear.FreeDofsOperator)
+            with self._stage("Assembly"):
+                values = self._jacobian_values(evaluation, X.getArray(readonly=True), u_local)
+                coo.set_values(self.free_matrix, values)
+                free_operator.update(values, st.constraint_scale / self.residual_scale)
+            P.assemble()
+            if J != P:
+                J.assemble()
+            return
         if P.getType() == PETSc.Mat.Type.PYTHON:
             if evaluation is not None:
                 project = self.formulation.projector(st, grid)

@@ -129,13 +129,14 @@ elif term.friction:
     term._u = None
 problem.form_residual(None, X, R)
 problem.form_jacobian(None, X, solver.J, solver.J)
+J = solver.whole_jacobian()          # (the free dofs' operator's values, assembled whole)
 status = term._local["status"]
 capped = (status == 1) & (term.mu * term._local["pressure"] > term.kt * term.stick)
 states = comm.allreduce(np.array([np.sum(status == k) for k in range(3)] + [np.sum(capped)]))
 pulling = comm.allreduce(int(np.sum((status == 1) & (term._local["pressure"] < 0.0))))
 # the central differences, and the matrix-free product and diagonal (pimpm.implicit.shell)
 relative, shell_error, diagonal_error = tangent_errors(sim.grid, problem, sim.terms, sim.config["solver"],
-                                                       state, X, R, solver.J, comm)
+                                                       state, X, R, J, comm)
 if comm.rank == 0:
     print(f"contact jacobian {dim}d {law} {geometry} {integrator} {kinematics} {shape} ranks {comm.size}: "
           f"relative error {relative:.3e}, "

@@ -119,25 +119,29 @@ X = solver.X.duplicate()
 X.getArray()[:] = u
 R = solver.R.duplicate()
 problem.form_jacobian(None, X, solver.J, solver.J)
+# The whole grid's matrix (with the direct solver on the free dofs Newton's
+# matrix is pimpm.linear.FreeDofsOperator, which assembles only the free
+# dofs' matrix; here the whole one is made from the same values)
+J = solver.whole_jacobian()
 # Symmetry of the assembled tangent, against what the problem declares
 # (measured before the dense copy below, which converts J in place;
 # a symmetric tangent is factorized by LDL^T: pimpm/solver.py).
 from petsc4py import PETSc
-difference, transposed = solver.J.copy(), solver.J.copy()
+difference, transposed = J.copy(), J.copy()
 transposed.transpose()                     # in place (petsc4py transposes self when out is None)
 difference.axpy(-1.0, transposed)
-asymmetry = difference.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
+asymmetry = difference.norm(PETSc.NormType.INFINITY) / J.norm(PETSc.NormType.INFINITY)
 difference.destroy()
 transposed.destroy()
 # The direct solver's matrix on the free dofs (pimpm.linear.FreeDofsKSP)
 # against the free rows and columns of the whole matrix
 free_matrix_difference = 0.0
 if problem.free_matrix is not None:
-    start_J = solver.J.getOwnershipRange()[0]
+    start_J = J.getOwnershipRange()[0]
     keep = PETSc.IS().createGeneral((start_J + np.flatnonzero(~state.fixed)).astype(PETSc.IntType), comm=comm)
-    block = solver.J.createSubMatrix(keep, keep)
+    block = J.createSubMatrix(keep, keep)
     block.axpy(-1.0, problem.free_matrix, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    free_matrix_difference = block.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
+    free_matrix_difference = block.norm(PETSc.NormType.INFINITY) / J.norm(PETSc.NormType.INFINITY)
     block.destroy()
     keep.destroy()
 # The COO assembly (pimpm/coo.py) against PETSc's MatSetValuesLocal path
@@ -148,11 +152,11 @@ if problem.coo:
     problem.coo = False
     problem.form_jacobian(None, X, J_csr, J_csr)
     problem.coo = True
-    J_csr.axpy(-1.0, solver.J)
-    coo_difference = J_csr.norm(PETSc.NormType.INFINITY) / solver.J.norm(PETSc.NormType.INFINITY)
+    J_csr.axpy(-1.0, J)
+    coo_difference = J_csr.norm(PETSc.NormType.INFINITY) / J.norm(PETSc.NormType.INFINITY)
     J_csr.destroy()
 free_local = ~state.fixed
-err, scale, J_local = jacobian_error(problem, solver.J, X, R, free_local, comm, h=1e-6)
+err, scale, J_local = jacobian_error(problem, J, X, R, free_local, comm, h=1e-6)
 n_free = comm.allreduce(int(free_local.sum()))
 # Prescribed rows: identity times the scale, zero elsewhere (symmetric elimination).
 fixed_rows = J_local[state.fixed]
@@ -175,26 +179,48 @@ for trial in range(3):
     v = X.duplicate()
     v.getArray()[:] = rng.standard_normal(n_local)
     y_assembled, y_shell = X.duplicate(), X.duplicate()
-    solver.J.mult(v, y_assembled)
+    J.mult(v, y_assembled)
     shell_solver.J.mult(v, y_shell)
     y_shell.axpy(-1.0, y_assembled)
     shell_error = max(shell_error, y_shell.norm() / y_assembled.norm())
     if momentum:      # the shell's diagonal is diag(K) diag(R), a preconditioner only
         continue
     d_assembled, d_shell = X.duplicate(), X.duplicate()
-    solver.J.getDiagonal(d_assembled)
+    J.getDiagonal(d_assembled)
     shell_solver.J.getDiagonal(d_shell)
     d_shell.axpy(-1.0, d_assembled)
     shell_error = max(shell_error, d_shell.norm() / d_assembled.norm())
 shell_solver.destroy()
+# Newton's own operator (FreeDofsOperator with the free-dofs solver) against the whole matrix
+operator_error = 0.0
+if J != solver.J:
+    for trial in range(2):
+        v = X.duplicate()
+        v.getArray()[:] = rng.standard_normal(n_local)
+        y_whole, y_operator = X.duplicate(), X.duplicate()
+        J.mult(v, y_whole)
+        solver.J.mult(v, y_operator)
+        y_operator.axpy(-1.0, y_whole)
+        operator_error = max(operator_error, y_operator.norm() / y_whole.norm())
+        J.multTranspose(v, y_whole)
+        solver.J.multTranspose(v, y_operator)
+        y_operator.axpy(-1.0, y_whole)
+        operator_error = max(operator_error, y_operator.norm() / y_whole.norm())
+    d_whole, d_operator = X.duplicate(), X.duplicate()
+    J.getDiagonal(d_whole)
+    solver.J.getDiagonal(d_operator)
+    d_operator.axpy(-1.0, d_whole)
+    operator_error = max(operator_error, d_operator.norm() / d_whole.norm())
+    J.destroy()
 
 if comm.rank == 0:
     print(f"shell_product_relative_error={shell_error:.3e}")
     print(f"coo_used={problem.coo} coo_csr_difference={coo_difference:.3e}")
-    print(f"free_matrix={problem.free_matrix is not None} free_matrix_difference={free_matrix_difference:.3e}")
+    print(f"free_matrix={problem.free_matrix is not None} free_matrix_difference={free_matrix_difference:.3e} "
+          f"free_dofs_operator={J != solver.J} operator_difference={operator_error:.3e}")
     print(f"jacobian_check {integrator} dim={sim.dim} shape={shape} ranks={comm.size} free_dofs={n_free} "
           f"formulation={'momentum' if momentum else 'velocity'} "
           f"relative_error={err / scale:.3e} prescribed_rows_ok={diag_ok} "
           f"asymmetry={asymmetry:.3e} declared_symmetric={problem.symmetric} weak_pairs={weak_pairs} f_bar={f_bar}")
-ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8 and free_matrix_difference < 1e-14
+ok = err / scale < 1e-6 and diag_ok and n_free > 20 and shell_error < 1e-8 and free_matrix_difference < 1e-14 and operator_error < 1e-14
 sys.exit(0 if ok else 1)

@@ -65,11 +65,12 @@ X.getArray()[:] = np.where(state.fixed, state.fixed_value, state.predictor())
 R = solver.R.duplicate()
 problem.form_residual(None, X, R)
 problem.form_jacobian(None, X, solver.J, solver.J)
+J = solver.whole_jacobian()          # (the free dofs' operator's values, assembled whole)
 status = term._local["status"]
 states = comm.allreduce(np.array([np.sum(status == k) for k in range(3)]))
 # the central differences, and the matrix-free product and diagonal (pimpm.implicit.shell)
 relative, shell_error, diagonal_error = tangent_errors(sim.solve_grid, problem, sim.terms, sim.config["solver"],
-                                                       state, X, R, solver.J, comm)
+                                                       state, X, R, J, comm)
 if comm.rank == 0:
     print(f"pair jacobian {dim}d {law} {integrator} {shape} ranks {comm.size}: relative error {relative:.3e}, "
           f"shell {shell_error:.3e} (diagonal {diagonal_error:.3e}), pairs open/stick/slip {states.tolist()}")
