@@ -16,18 +16,20 @@ the variants; each cell is the median of --repeats.
 Prints a table (steps, step cuts, Newton iterations per step, Krylov
 iterations per Newton iteration (median over steps), the first 10 steps'
 wall time (the history's per-step times), the whole process's wall time,
-peak resident memory of the largest rank, particles) and writes JSON.
+peak resident memory of the largest rank, particles; with --log-view each
+-log_view stage's share of the run, of its first repeat) and writes JSON.
 --max-steps stops a run by its end time after about that many steps
 (end time = N dt) for runs too slow to finish.
 
     python scripts/bench_3d.py [--sizes 2 1 0.5] [--ranks 2] [--repeats 1]
         [--variants default per-iteration] [--baseline 89dbf38] [--max-steps N]
-        [--contact bonded|tied] [--json docs/data/bench_3d.json]
+        [--contact bonded|tied] [--log-view] [--json docs/data/bench_3d.json]
 """
 import argparse
 import csv
 import json
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -54,6 +56,16 @@ def env(tree):
              OMPI_MCA_rmaps_base_oversubscribe="1")
     e["PYTHONPATH"] = tree + os.pathsep + e.get("PYTHONPATH", "")
     return e
+
+
+def stage_shares(stdout):
+    """Each -log_view stage's share of the run in percent (its time on the
+    slowest rank against the run's), from the "Summary of Stages" table,
+    whose rows read " 3:           Solve: 5.5904e+00  43.0% ...": {name:
+    percent}; empty without -log_view."""
+    table = stdout.partition("Summary of Stages")[2]
+    rows = re.findall(r"^\s*\d+:\s+(.+?):\s+\S+\s+([0-9.]+)%", table, flags=re.MULTILINE)
+    return {name: float(percent) for name, percent in rows}
 
 
 def run(tree, options, size, ranks, end_time, out):
@@ -86,7 +98,8 @@ def run(tree, options, size, ranks, end_time, out):
             "peak_rss_mb": peak[0] / 1024.0 if peak else None,
             "particles": particles[0].split(":")[1].split("particles")[0].strip() if particles else "",
             "force_kN": -float(rows[-1]["platen_force_z"]) * 4 / 1000.0 if rows else None,
-            "force_trend_kN": trend, "radius_mid_height_mm": radius}
+            "force_trend_kN": trend, "radius_mid_height_mm": radius,
+            "stage_shares_percent": stage_shares(proc.stdout)}
 
 
 def shape_at_end(out, rows, size):
@@ -125,6 +138,8 @@ def main():
     ap.add_argument("--contact", default=None, choices=["bonded", "tied"],
                     help="the platen's contact law in this tree's runs (default: the input's, tied; "
                          "the baseline runs its own input)")
+    ap.add_argument("--log-view", action="store_true",
+                    help="run with -log_view and report each stage's share of the run")
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     contact = [] if args.contact is None else ["--set", f"bodies[1].contact={args.contact}"]
@@ -142,7 +157,7 @@ def main():
                 for _ in range(args.repeats):
                     for v in args.variants:
                         out = os.path.join(scratch, v)
-                        extra = contact if v != "baseline" else []
+                        extra = (contact if v != "baseline" else []) + (["-log_view"] if args.log_view else [])
                         runs[v].append(run(trees[v], extra + OPTIONS[v], size, ranks, end_time, out))
                 for v in args.variants:
                     median = {k: (statistics.median([r[k] for r in runs[v]])
@@ -160,6 +175,9 @@ def main():
                           f"particles {r['particles']}  force {r['force_kN'] or 0:.1f} kN (trend "
                           f"{r['force_trend_kN'] or 0:.1f})  radius at mid-height "
                           f"{r['radius_mid_height_mm'] or 0:.2f} mm", flush=True)
+                    if r["stage_shares_percent"]:
+                        print("      stages: " + ", ".join(f"{k} {p:.1f}%" for k, p in r["stage_shares_percent"].items()),
+                              flush=True)
                     if r["error"]:
                         print("      " + r["error"], flush=True)
     if args.json:
