@@ -73,23 +73,31 @@ def shell_errors(grid, problem, terms, solver_config, state, X, R, J, comm, seed
     shell_problem.begin(state)
     problem.form_residual(None, X, R)            # the terms' state at the iterate again
     shell_problem.form_jacobian(None, X, shell_solver.J, shell_solver.J)
-    rng = np.random.default_rng(seed + comm.rank)
-    product = 0.0
-    for _ in range(3):
-        v = X.duplicate()
-        v.getArray()[:] = rng.standard_normal(v.getLocalSize())
-        y_assembled, y_shell = X.duplicate(), X.duplicate()
-        J.mult(v, y_assembled)
-        shell_solver.J.mult(v, y_shell)
-        y_shell.axpy(-1.0, y_assembled)
-        product = max(product, y_shell.norm() / y_assembled.norm())
-    d, d_shell = X.duplicate(), X.duplicate()
-    J.getDiagonal(d)
-    shell_solver.J.getDiagonal(d_shell)
-    d_shell.axpy(-1.0, d)
-    diagonal = d_shell.norm() / d.norm()
+    product, diagonal = operator_differences(J, shell_solver.J, X, np.random.default_rng(seed + comm.rank))
     shell_solver.destroy()
     return product, diagonal
+
+
+def operator_differences(A, B, X, rng, trials=3, transpose=False):
+    """How far the operator ``B`` is from ``A`` (PETSc Mats on the layout of
+    the Vec ``X``): (the largest relative difference of ``trials`` products
+    with random vectors, and of the transposed products too with
+    ``transpose``; the relative difference of their diagonals). Collective."""
+    product = 0.0
+    for _ in range(trials):
+        v = X.duplicate()
+        v.getArray()[:] = rng.standard_normal(v.getLocalSize())
+        y_a, y_b = X.duplicate(), X.duplicate()
+        for mult_a, mult_b in [(A.mult, B.mult)] + ([(A.multTranspose, B.multTranspose)] if transpose else []):
+            mult_a(v, y_a)
+            mult_b(v, y_b)
+            y_b.axpy(-1.0, y_a)
+            product = max(product, y_b.norm() / y_a.norm())
+    d_a, d_b = X.duplicate(), X.duplicate()
+    A.getDiagonal(d_a)
+    B.getDiagonal(d_b)
+    d_b.axpy(-1.0, d_a)
+    return product, d_b.norm() / d_a.norm()
 
 
 def tangent_errors(grid, problem, terms, solver_config, state, X, R, J, comm):
