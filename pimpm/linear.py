@@ -172,6 +172,13 @@ class FreeDofsOperator:
             vec.destroy()
 
 
+def free_dofs_operator(mat):
+    """The :class:`FreeDofsOperator` of a python Mat, or None for any other matrix."""
+    if mat.getType() == PETSc.Mat.Type.PYTHON and isinstance(mat.getPythonContext(), FreeDofsOperator):
+        return mat.getPythonContext()
+    return None
+
+
 #: the lagged solves' relative tolerance (on the true residual) and iteration
 #: limit; a solve that does not converge within the limit factorizes anew.
 #: An inexact Newton step (Dembo, Eisenstat & Steihaug 1982): each Newton

@@ -17,7 +17,7 @@ from petsc4py import PETSc
 from .convergence import GuilkeyWeissTest
 from . import presets
 from .line_search import FullStepFirst
-from .linear import FallbackKSP, FreeDofsKSP, FreeDofsOperator, rigid_body_near_null_space
+from .linear import FallbackKSP, FreeDofsKSP, free_dofs_operator, rigid_body_near_null_space
 from .stages import log_stage
 
 
@@ -310,9 +310,8 @@ class NewtonSolver:
         """The step's Newton matrix over the whole grid, assembled (as the last
         Jacobian left it): ``J`` itself, or made from the free dofs' operator's
         values (a new Mat: destroy it). For checks; collective."""
-        if self.J.getType() == PETSc.Mat.Type.PYTHON and isinstance(self.J.getPythonContext(), FreeDofsOperator):
-            return self.J.getPythonContext().whole()
-        return self.J
+        operator = free_dofs_operator(self.J)
+        return self.J if operator is None else operator.whole()
 
     def destroy(self):
         """Free the PETSc objects now (collective); Python contexts held by
@@ -516,8 +515,9 @@ def command_line_options():
 
 def _destroy_matrix(J):
     """Destroy ``J`` and the vectors of a free dofs' operator it holds."""
-    if J.getType() == PETSc.Mat.Type.PYTHON and isinstance(J.getPythonContext(), FreeDofsOperator):
-        J.getPythonContext().release()
+    operator = free_dofs_operator(J)
+    if operator is not None:
+        operator.release()
     J.destroy()
 
 

@@ -17,7 +17,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import coo, faults, fbar, interrupt
-from ..linear import FreeDofsOperator
+from ..linear import FreeDofsOperator, free_dofs_operator
 from ..kernels import fbar as fbar_kernels
 from ..kernels import particle_step
 from ..materials.model import youngs_modulus
@@ -331,18 +331,8 @@ class StepProblem:
         grid = self.grid
         u_local = grid.vec_to_local(X)
         evaluation = self.evaluate(X.getArray(readonly=True), u_local)
-        free_operator = (P.getPythonContext() if P.getType() == PETSc.Mat.Type.PYTHON
-                         and isinstance(P.getPythonContext(), FreeDofsOperator) else None)
-        if free_operator is not None:       # the free dofs' matrix alone (pimpm.linear.FreeDofsOperator)
-            with self._stage("Assembly"):
-                values = self._jacobian_values(evaluation, X.getArray(readonly=True), u_local)
-                coo.set_values(self.free_matrix, values)
-                free_operator.update(values, st.constraint_scale / self.residual_scale)
-            P.assemble()
-            if J != P:
-                J.assemble()
-            return
-        if P.getType() == PETSc.Mat.Type.PYTHON:
+        free_operator = free_dofs_operator(P)
+        if P.getType() == PETSc.Mat.Type.PYTHON and free_operator is None:      # the matrix-free shell
             if evaluation is not None:
                 project = self.formulation.projector(st, grid)
                 P.getPythonContext().update(st, evaluation, self.residual_scale, project,
@@ -357,7 +347,11 @@ class StepProblem:
             if self.coo:
                 # every rank hands PETSc its values, none or not (collective)
                 values = self._jacobian_values(evaluation, X.getArray(readonly=True), u_local)
-                coo.set_values(P, values)
+                if free_operator is None:
+                    coo.set_values(P, values)
+                else:              # the free dofs' matrix alone holds them (pimpm.linear.FreeDofsOperator)
+                    free_operator.update(values, st.constraint_scale / self.residual_scale)
+                    P.assemble()
                 if self.free_matrix is not None:
                     coo.set_values(self.free_matrix, values)
                 if J != P:

@@ -296,7 +296,8 @@ class ContactTool(NodalTerm):
         (:meth:`pimpm.solver.NewtonSolver.linear_predictor`), where the
         push-out put the whole increment into the cell layer under the tool:
         the 0.5 mm 3D upsetting's first step then took one cut, not two
-        (and none once only the held corners count at that guess). At that guess only the held corners are in contact (:meth:`_evaluate`):
+        (and none once only the held corners count at that guess). At that
+        guess only the held corners are in contact (:meth:`_evaluate`):
         the tool has moved past the corners inside the body below them by
         up to its travel, and their penalty crushed the layer under it (the
         1 mm 3D upsetting, half a cell of travel: nodes a cell below the
