@@ -146,9 +146,12 @@ def block_pattern(node_index, active, node_ijk, dim, width, owned_nodes, n_nodes
             if not active[p, k]:
                 continue
             i = node_index[p, k]
-            for m in range(nn):
+            for m in range(k, nn):      # the couplings are symmetric: j's slot of i mirrors i's of j
                 if active[p, m]:
-                    mark[i, stencil_slot(i, node_index[p, m], node_ijk, dim, width)] = True
+                    j = node_index[p, m]
+                    s = stencil_slot(i, j, node_ijk, dim, width)
+                    mark[i, s] = True
+                    mark[j, slots - 1 - s] = True
     if len(cell_start) > 1:
         mark_cells(cell_order, cell_start, node_index, active, node_ijk, dim, width, mark)
     if len(box_centres):
