@@ -329,13 +329,25 @@ class Grid:
 
     def transfer_owned(self, values, other):
         """Owned nodal ``values`` (``k`` per node) of this grid as owned values
-        of ``other``, the same grid partitioned differently. Collective; used
-        only when the ranks are repartitioned, so an allgather is fine."""
+        of ``other``, the same grid partitioned differently. Collective. Through
+        PETSc's natural (x fastest) ordering of the DMDAs: each rank sends and
+        receives only what changes owner, no rank holds the whole grid."""
         k = len(values) // self.n_owned_nodes                 # every rank owns nodes
-        everything = np.zeros((int(np.prod(self.nodes)), k))
-        for index, part in self.comm.allgather((self.natural_node_index(), values.reshape(-1, k))):
-            everything[index] = part
-        return everything[other.natural_node_index()].reshape(-1).copy()
+        source, target = self.da.duplicate(dof=k), other.da.duplicate(dof=k)
+        g_source, g_target = source.createGlobalVec(), target.createGlobalVec()
+        n_source, n_target = source.createNaturalVec(), target.createNaturalVec()
+        g_source.getArray()[:] = values
+        source.globalToNatural(g_source, n_source)
+        # the natural numbering is the same in both: entry i goes to entry i
+        start, end = n_target.getOwnershipRange()
+        wanted = PETSc.IS().createStride(end - start, first=start, step=1, comm=PETSc.COMM_SELF)
+        scatter = PETSc.Scatter().create(n_source, wanted, n_target, wanted)
+        scatter.scatter(n_source, n_target, addv=PETSc.InsertMode.INSERT_VALUES)
+        target.naturalToGlobal(n_target, g_target)
+        out = g_target.getArray(readonly=True).copy()
+        for obj in (scatter, wanted, g_source, g_target, n_source, n_target, source, target):
+            obj.destroy()
+        return out
 
     def vec_to_local(self, vec):
         """Ghosted-local copy (n_local_nodes, dim) of a global Vec. Collective."""
