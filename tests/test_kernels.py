@@ -209,6 +209,12 @@ def test_particle_evaluation_and_tangent_blocks_equal_the_numpy_kernels(kinemati
     assert np.array_equal(RK.pattern_couplings(pattern, grid.n_local_nodes), coupled)
     block_rows = np.repeat(np.arange(len(pattern.indptr) - 1), np.diff(pattern.indptr))
     assert np.all(np.diff(pattern.indices)[np.diff(block_rows) == 0] > 0)     # sorted rows
+    # every owned node's diagonal block, where the nodal terms add theirs
+    nodes = grid.owned_local_nodes
+    positions = pattern.block_positions(nodes, dim)
+    dofs = nodes[:, None] * dim + np.arange(dim)
+    assert np.array_equal(pattern.scalar_rows[positions], np.broadcast_to(dofs[:, :, None], positions.shape))
+    assert np.array_equal(pattern.scalar_indices[positions], np.broadcast_to(dofs[:, None, :], positions.shape))
 
 
 def test_a_table_of_several_models_dispatches_each_particle_to_its_own():

@@ -106,25 +106,20 @@ class TangentPattern:
         ``scalar_indices``, the values' (row, column) pairs."""
         return np.repeat(np.arange(len(self.scalar_indptr) - 1), np.diff(self.scalar_indptr))
 
-    @cached_property
-    def _entry_keys(self):
-        """row * (number of columns) + column of every value: sorted (rows in
-        order, columns sorted within a row)."""
-        return self.scalar_rows.astype(np.int64) * self._columns + self.scalar_indices
-
-    @cached_property
-    def _columns(self):
-        return int(len(self.scalar_indptr) - 1)
-
     def block_positions(self, local_nodes, dim):
         """Positions in the scalar CSR values of the diagonal dim x dim block
         of each ghosted-local node in ``local_nodes`` (k, dim, dim): every
-        owned node's diagonal block is in the pattern."""
+        owned node's diagonal block is in the pattern. Block k of node row i,
+        entry (a, b), is value dim^2 indptr[i] + a L_i dim + k dim + b, L_i the
+        row's number of blocks (:func:`pimpm.kernels.pattern.scalar_csr`)."""
         nodes = np.asarray(local_nodes, dtype=np.int64)
-        rows = nodes[:, None, None] * dim + np.arange(dim)[None, :, None]
-        columns = nodes[:, None, None] * dim + np.arange(dim)[None, None, :]
-        positions = np.searchsorted(self._entry_keys, rows * self._columns + columns)
-        found = self._entry_keys[np.minimum(positions, len(self._entry_keys) - 1)]
-        if not np.all(found == rows * self._columns + columns):
+        centre = (self.slot_position.shape[1] - 1) // 2
+        slot = self.slot_position[nodes, centre]
+        if np.any(slot < 0):
             raise RuntimeError("a node's diagonal block is not in the tangent's pattern")
-        return positions
+        start = self.indptr[nodes]
+        length = self.indptr[nodes + 1] - start
+        a = np.arange(dim)[None, :, None]
+        b = np.arange(dim)[None, None, :]
+        return (dim * dim * start[:, None, None] + a * (length * dim)[:, None, None]
+                + ((slot - start) * dim)[:, None, None] + b)
