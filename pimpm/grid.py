@@ -333,8 +333,8 @@ class Grid:
         PETSc's natural (x fastest) ordering of the DMDAs: each rank sends and
         receives only what changes owner, no rank holds the whole grid."""
         k = len(values) // self.n_owned_nodes                 # every rank owns nodes
-        source, target = self.da.duplicate(dof=k), other.da.duplicate(dof=k)
-        g_source, g_target = source.createGlobalVec(), target.createGlobalVec()
+        source, _, g_source = self._wide_da(k)
+        target, _, g_target = other._wide_da(k)
         n_source, n_target = source.createNaturalVec(), target.createNaturalVec()
         g_source.getArray()[:] = values
         source.globalToNatural(g_source, n_source)
@@ -345,7 +345,7 @@ class Grid:
         scatter.scatter(n_source, n_target, addv=PETSc.InsertMode.INSERT_VALUES)
         target.naturalToGlobal(n_target, g_target)
         out = g_target.getArray(readonly=True).copy()
-        for obj in (scatter, wanted, g_source, g_target, n_source, n_target, source, target):
+        for obj in (scatter, wanted, n_source, n_target):
             obj.destroy()
         return out
 
