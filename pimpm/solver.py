@@ -15,6 +15,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .convergence import GuilkeyWeissTest
+from .implicit.shell import TangentShell
 from . import presets
 from .line_search import FullStepFirst
 from .linear import FallbackKSP, FreeDofsKSP, free_dofs_operator, rigid_body_near_null_space
@@ -308,6 +309,16 @@ class NewtonSolver:
             self.snes.setJacobian(self.problem.form_jacobian, J, J)
         _destroy_matrix(self.J)
         self.J = J
+
+    def end_step(self):
+        """The step is over (its particles updated, or it failed): drop its
+        particle state (:meth:`pimpm.implicit.StepProblem.end_step`) and what
+        a matrix-free tangent keeps of it."""
+        self.problem.end_step()
+        if self.J is not None and self.J.getType() == PETSc.Mat.Type.PYTHON:
+            context = self.J.getPythonContext()
+            if isinstance(context, TangentShell):
+                context.release()
 
     def whole_jacobian(self):
         """The step's Newton matrix over the whole grid, assembled (as the last

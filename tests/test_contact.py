@@ -755,3 +755,42 @@ def test_a_rigid_plate_compresses_a_cube_and_lets_go():
     assert stats.cuts == 0 and stats.failure is None
     _assert_plate_stress(rows, axis=2, area=0.64, tolerance=0.015)
     assert all(not np.any(row["force"]) for row in rows[40:])
+
+
+def test_a_step_leaves_no_particle_state_behind(monkeypatch):
+    """Once a step has ended, converged or failed, neither the Newton problem
+    nor a contact tool keeps its particle state (the footprint, weights,
+    stiffness densities, corner weights and iterates, about 2 kB a particle
+    in 3D): the migration's copies and the next step's state are not made
+    beside it (docs/PERFORMANCE.md, "A step's particle state goes when the
+    step ends")."""
+    import gc
+    import weakref
+
+    from pimpm.errors import StepFailed
+    from pimpm.simulation import Simulation
+    from pimpm.steps import implicit as implicit_step
+
+    made = []
+    prepare = implicit_step.prepare
+
+    def recording(sim, dt):
+        state, cons = prepare(sim, dt)
+        made.append(weakref.ref(state))
+        return state, cons
+
+    monkeypatch.setattr(implicit_step, "prepare", recording)
+    sim = Simulation(load_config(f"{REPO}/inputs/block_on_ramp.yaml"), MPI.COMM_SELF)
+    tool = sim.contact_tools[0]
+    for _ in range(2):
+        sim.advance(1e-3)
+    gc.collect()
+    assert len(made) == 2 and all(ref() is None for ref in made)
+    assert sim.problem.state is None and tool._step is None and tool._local is None and tool._x is None
+    assert tool.last["contact_points"] > 0          # what the step reported stays
+    # a step that fails (one Newton iteration allowed) lets go of its state too
+    sim.solver.snes.setTolerances(max_it=1)
+    with pytest.raises(StepFailed):
+        sim.advance(1e-3)
+    gc.collect()
+    assert len(made) == 3 and made[-1]() is None and sim.problem.state is None and tool._step is None

@@ -33,6 +33,11 @@ class TangentShell:
         self.u = None           # the iterate
         self.node_coupling = None
 
+    def release(self):
+        """Drop the step's state and iterate (:meth:`update` sets them again)."""
+        self.state = self.evaluation = self.node_coupling = None
+        self.u = self.u_local = None
+
     def _term_blocks(self):
         """The nodal terms' derivative blocks at the iterate (pimpm.terms)."""
         blocks = (term.jacobian_blocks(self.u) for term in self.terms)

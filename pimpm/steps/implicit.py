@@ -31,19 +31,26 @@ def advance(sim, dt):
     t0 = wallclock.perf_counter()
     with log_stage(sim.stages["P2G"]):
         state, cons = prepare(sim, dt)                   # steps 1-2
-    u, info = sim.solver.solve(state, lambda: initial_guess(sim, state), sim.step_index + 1)   # steps 3-6
-    if not info["converged"]:
-        why = (THICKNESS_FAILURE if info["thickness_failed"] else
-               "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"])
-        raise StepFailed(f"Newton did not converge at step {sim.step_index + 1} "
-                         f"(t = {sim.time + dt:.6g}, dt = {dt:.6g}): {why} after "
-                         f"{info['newton_iterations']} iterations")
-    with log_stage(sim.stages["G2P"]):
-        forces, v_new, a_new = update_particles(sim, state, cons, u, dt)   # step 7
+    try:
+        u, info = sim.solver.solve(state, lambda: initial_guess(sim, state), sim.step_index + 1)   # steps 3-6
+        if not info["converged"]:
+            why = (THICKNESS_FAILURE if info["thickness_failed"] else
+                   "a particle inverted (det F <= 0)" if info["inverted"] else info["reason_name"])
+            raise StepFailed(f"Newton did not converge at step {sim.step_index + 1} "
+                             f"(t = {sim.time + dt:.6g}, dt = {dt:.6g}): {why} after "
+                             f"{info['newton_iterations']} iterations")
+        with log_stage(sim.stages["G2P"]):
+            forces, v_new, a_new = update_particles(sim, state, cons, u, dt)   # step 7
+        mass = state.mass
+    finally:
+        # the step's particle state goes before the migration copies the
+        # particles and the next step makes its own (also when it failed)
+        sim.solver.end_step()
+        del state
     with log_stage(sim.stages["Migration"]):
         sim.migrate()                                        # step 8
     history = info["residual_history"]
-    return sim.finish_step(dt, t0, forces, sim.fields.grid_output(sim.grid, state.mass, v_new, a_new, u),
+    return sim.finish_step(dt, t0, forces, sim.fields.grid_output(sim.grid, mass, v_new, a_new, u),
                             newton_iterations=info["newton_iterations"],
                             linear_iterations=info["linear_iterations"],
                             backtracks=info["backtracks"],

@@ -110,6 +110,11 @@ class NodalTerm:
     def commit(self, particles):
         """The converged step: keep what the term carries to the next one."""
 
+    def end_newton(self):
+        """The implicit step is over (reported and committed, or failed):
+        drop what :meth:`begin_step` and :meth:`begin_newton` kept of its
+        particles, so that the next step's arrays are not made beside them."""
+
     def jacobian_blocks(self, u_owned):
         """The derivative of :meth:`add_residual` at the iterate ``u_owned``:
         (owned node indices (k,), blocks (k, dim, dim)), or None."""

@@ -444,6 +444,14 @@ class ContactTool(NodalTerm):
         self.offset = self.offset + self._increment
         self.dissipation += self.last.get("step_dissipation", 0.0)
 
+    def end_newton(self):
+        """Drop the step's candidates, corner weights (8 x 27 values a
+        candidate in 3D with GIMP) and iterate, and the last step's particle
+        arrays (:meth:`begin_step`)."""
+        self._x = self._half = self._history = self._density = self._touching = self._depth = None
+        self._step = self._cand = self._local = self._u = self._held = None
+        self._candidates = self._others = self._faces = self._start_depth = self._rest_start = None
+
     def state(self):
         return {"offset": [float(v) for v in self.offset], "dissipation": self.dissipation}
 
