@@ -41,6 +41,7 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from pimpm_runs import mpi_env  # noqa: E402
 from worktrees import worktree  # noqa: E402
 
 INPUT = "inputs/upsetting_3d.yaml"
@@ -49,13 +50,6 @@ OPTIONS = {"default": [],
            "per-iteration": ["-pimpm_reuse_factorization", "false", "-pimpm_linear_predictor", "false"],
            "gmres-gamg": ["-pimpm_preset", "gmres-gamg", "-pimpm_fallback", "false"],
            "baseline": ["-pimpm_preset", "gmres-gamg", "-pimpm_fallback", "false"]}
-
-
-def env(tree):
-    e = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-             OMPI_MCA_rmaps_base_oversubscribe="1")
-    e["PYTHONPATH"] = tree + os.pathsep + e.get("PYTHONPATH", "")
-    return e
 
 
 def stage_shares(stdout):
@@ -77,7 +71,7 @@ def run(tree, options, size, ranks, end_time, out):
            "--set", f"grid.cells=[{cells[0]},{cells[1]},{cells[2]}]", "--set", f"time.dt={dt!r}",
            "--set", f"time.end_time={end_time!r}"] + options
     start = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env(tree), cwd=tree)
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=mpi_env(tree), cwd=tree)
     wall = time.perf_counter() - start
     with open(os.path.join(out, "history.csv")) as f:
         rows = list(csv.DictReader(f))

@@ -28,16 +28,10 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from pimpm_runs import mpi_env  # noqa: E402
 from worktrees import worktree  # noqa: E402
 
 INPUT = "inputs/upsetting_3d.yaml"
-
-
-def env(tree):
-    e = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-             OMPI_MCA_rmaps_base_oversubscribe="1")
-    e["PYTHONPATH"] = tree + os.pathsep + e.get("PYTHONPATH", "")
-    return e
 
 
 def run(tree, size, ppc, ranks, end_time):
@@ -50,7 +44,7 @@ def run(tree, size, ppc, ranks, end_time):
                "--set", f"grid.cells=[{cells[0]},{cells[1]},{cells[2]}]",
                "--set", f"time.dt={1.0e-3 * size / 2.0!r}", "--set", f"time.end_time={end_time!r}",
                "--set", f"bodies[0].particles_per_cell={ppc}"]
-        proc = subprocess.run(cmd, capture_output=True, text=True, env=env(tree), cwd=tree)
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=mpi_env(tree), cwd=tree)
     if proc.returncode != 0:
         raise SystemExit(f"run failed ({' '.join(cmd)}):\n{proc.stderr[-2000:]}")
     peak = [int(line.split()[1]) for line in proc.stderr.splitlines() if line.startswith("PEAK_KB")]

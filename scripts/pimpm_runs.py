@@ -10,10 +10,12 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def mpi_env():
+def mpi_env(tree=ROOT):
+    """The environment of a run of the checkout at ``tree`` (this one, or a
+    baseline's git worktree) under mpiexec."""
     e = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
              OMPI_MCA_rmaps_base_oversubscribe="1")
-    e["PYTHONPATH"] = ROOT + os.pathsep + e.get("PYTHONPATH", "")
+    e["PYTHONPATH"] = tree + os.pathsep + e.get("PYTHONPATH", "")
     return e
 
 
