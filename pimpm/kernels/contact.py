@@ -789,7 +789,7 @@ def contact_blocks(node_index, active, W, D, status, node_ijk, width, indptr, sl
     particle with a corner in contact (or HELD) into the step pattern's ``values``."""
     n_particles, corners, nn = W.shape
     dim = D.shape[2]
-    K = np.zeros((nn, dim, nn, dim))
+    K = np.zeros((nn, nn, dim * dim))       # block (k, m), entry (a, b) at a dim + b
     used = np.zeros((nn, nn), dtype=np.bool_)
     nodes = np.empty(nn, dtype=np.int64)
     for p in range(n_particles):
@@ -807,7 +807,7 @@ def contact_blocks(node_index, active, W, D, status, node_ijk, width, indptr, sl
                         ww = W[p, c, k] * W[p, c, m]
                         for a in range(dim):
                             for b in range(dim):
-                                K[k, a, m, b] -= ww * D[p, c, a, b]
+                                K[k, m, a * dim + b] -= ww * D[p, c, a, b]
         if any_contact:
             for k in range(nn):
                 nodes[k] = node_index[p, k]
