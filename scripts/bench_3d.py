@@ -7,10 +7,11 @@ input does), to --reduction of the height (default 60%).
 Variants (any subset, --variants): `default` (the program's 3D defaults),
 `per-iteration` (a factorization at every Newton iteration and the plain
 predictor: -pimpm_reuse_factorization false -pimpm_linear_predictor false),
-`gmres-gamg` (-pimpm_preset gmres-gamg -pimpm_fallback false), and
+`gmres-gamg` (-pimpm_preset gmres-gamg -pimpm_fallback false),
 `baseline` (`--baseline REV` run from its own git worktree with
--pimpm_preset gmres-gamg -pimpm_fallback false, the set-up issue 31 measured;
-a worktree's kernels compile in a first, untimed run). Rounds alternate
+-pimpm_preset gmres-gamg -pimpm_fallback false, the set-up issue 31 measured)
+and `baseline-default` (that worktree with its own defaults: a change side by
+side with its parent); a worktree's kernels compile in a first, untimed run. Rounds alternate
 the variants; each cell is the median of --repeats.
 
 Prints a table (steps, step cuts, Newton iterations per step, Krylov
@@ -49,7 +50,8 @@ HALF_HEIGHT = 15.0                 # mm
 OPTIONS = {"default": [],
            "per-iteration": ["-pimpm_reuse_factorization", "false", "-pimpm_linear_predictor", "false"],
            "gmres-gamg": ["-pimpm_preset", "gmres-gamg", "-pimpm_fallback", "false"],
-           "baseline": ["-pimpm_preset", "gmres-gamg", "-pimpm_fallback", "false"]}
+           "baseline": ["-pimpm_preset", "gmres-gamg", "-pimpm_fallback", "false"],
+           "baseline-default": []}
 
 
 def stage_shares(stdout):
@@ -127,7 +129,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--reduction", type=float, default=0.6)
     ap.add_argument("--variants", nargs="+", default=["default", "per-iteration"], choices=list(OPTIONS))
-    ap.add_argument("--baseline", default="89dbf38", help="the commit the `baseline` variant runs")
+    ap.add_argument("--baseline", default="89dbf38", help="the commit the `baseline` variants run")
     ap.add_argument("--max-steps", type=int, default=None)
     ap.add_argument("--contact", default=None, choices=["bonded", "tied"],
                     help="the platen's contact law in this tree's runs (default: the input's, tied; "
@@ -137,7 +139,7 @@ def main():
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     contact = [] if args.contact is None else ["--set", f"bodies[1].contact={args.contact}"]
-    trees = {v: (worktree(args.baseline) if v == "baseline" else ROOT) for v in args.variants}
+    trees = {v: (worktree(args.baseline) if v.startswith("baseline") else ROOT) for v in args.variants}
     results = []
     with tempfile.TemporaryDirectory() as scratch:
         for tree in set(trees.values()):          # compile the kernels once, untimed
@@ -151,14 +153,15 @@ def main():
                 for _ in range(args.repeats):
                     for v in args.variants:
                         out = os.path.join(scratch, v)
-                        extra = (contact if v != "baseline" else []) + (["-log_view"] if args.log_view else [])
+                        extra = ((contact if not v.startswith("baseline") else [])
+                                 + (["-log_view"] if args.log_view else []))
                         runs[v].append(run(trees[v], extra + OPTIONS[v], size, ranks, end_time, out))
                 for v in args.variants:
                     median = {k: (statistics.median([r[k] for r in runs[v]])
                                   if isinstance(runs[v][0][k], float) and all(r[k] is not None for r in runs[v])
                                   else runs[v][0][k]) for k in runs[v][0]}
                     results.append(dict(size_mm=size, ranks=ranks, variant=v, end_time=end_time,
-                                        tree=args.baseline if v == "baseline" else "working tree",
+                                        tree=args.baseline if v.startswith("baseline") else "working tree",
                                         **median))
                     r = results[-1]
                     print(f"{size:5.2f} mm  {ranks} ranks  {v:14s} {'done' if r['completed'] else 'FAILED':6s} "
