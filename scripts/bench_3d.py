@@ -139,7 +139,8 @@ def main():
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     contact = [] if args.contact is None else ["--set", f"bodies[1].contact={args.contact}"]
-    trees = {v: (worktree(args.baseline) if v.startswith("baseline") else ROOT) for v in args.variants}
+    from_baseline = {v for v in args.variants if v.startswith("baseline")}      # run from --baseline's worktree
+    trees = {v: (worktree(args.baseline) if v in from_baseline else ROOT) for v in args.variants}
     results = []
     with tempfile.TemporaryDirectory() as scratch:
         for tree in set(trees.values()):          # compile the kernels once, untimed
@@ -153,18 +154,17 @@ def main():
                 for _ in range(args.repeats):
                     for v in args.variants:
                         out = os.path.join(scratch, v)
-                        extra = ((contact if not v.startswith("baseline") else [])
-                                 + (["-log_view"] if args.log_view else []))
+                        extra = (contact if v not in from_baseline else []) + (["-log_view"] if args.log_view else [])
                         runs[v].append(run(trees[v], extra + OPTIONS[v], size, ranks, end_time, out))
                 for v in args.variants:
                     median = {k: (statistics.median([r[k] for r in runs[v]])
                                   if isinstance(runs[v][0][k], float) and all(r[k] is not None for r in runs[v])
                                   else runs[v][0][k]) for k in runs[v][0]}
                     results.append(dict(size_mm=size, ranks=ranks, variant=v, end_time=end_time,
-                                        tree=args.baseline if v.startswith("baseline") else "working tree",
+                                        tree=args.baseline if v in from_baseline else "working tree",
                                         **median))
                     r = results[-1]
-                    print(f"{size:5.2f} mm  {ranks} ranks  {v:14s} {'done' if r['completed'] else 'FAILED':6s} "
+                    print(f"{size:5.2f} mm  {ranks} ranks  {v:16s} {'done' if r['completed'] else 'FAILED':6s} "
                           f"steps {r['steps']:3d} ({100 * r['reached']:.0f}% of the way)  cuts {r['cuts']}  "
                           f"newton/step {r['newton_per_step']:.1f} (step 1: {r['newton_step1']})  "
                           f"krylov/newton {r['krylov_per_newton_median']:.1f}  first 10 steps "
