@@ -21,7 +21,7 @@ petsc4py.init([])
 import pytest  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
-from helpers import HERE, MPIEXEC, ROOT, run_mpi, run_pimpm  # noqa: E402
+from helpers import HERE, MPIEXEC, ROOT, BatchedChecks, run_mpi, run_pimpm  # noqa: E402
 from pimpm.config import ConfigError, validate  # noqa: E402
 from pimpm.fields import NODE_CONTACT_FIELDS  # noqa: E402
 from pimpm.io.fields import grid_fields  # noqa: E402
@@ -326,15 +326,20 @@ def test_implicit_disks_lose_no_more_energy_than_the_integrator_does_against_a_w
     assert abs(pair["restitution"] - wall["restitution"]) < 0.05
 
 
+PAIR_JACOBIAN_CASES = [(1, ["2d", "friction", "newmark", "gimp", "ball"]), (2, ["2d", "friction"]),
+                       (3, ["2d", "friction"]), (1, ["2d", "bonded", "hht", "linear"]),
+                       (2, ["3d", "friction"]), (3, ["3d", "friction", "newmark", "gimp", "ball"])]
+#: the cases of a rank count run as one MPI job (tests/mpi/batch.py)
+PAIR_JACOBIAN_CHECKS = BatchedChecks("pair_jacobian_check.py", PAIR_JACOBIAN_CASES)
+
+
 @pytest.mark.mpi
-@pytest.mark.parametrize("ranks,args", [(1, ["2d", "friction", "newmark", "gimp", "ball"]), (2, ["2d", "friction"]),
-                                        (3, ["2d", "friction"]), (1, ["2d", "bonded", "hht", "linear"]),
-                                        (2, ["3d", "friction"]), (3, ["3d", "friction", "newmark", "gimp", "ball"])])
+@pytest.mark.parametrize("ranks,args", PAIR_JACOBIAN_CASES)
 def test_the_pair_contact_tangent_matches_finite_differences(ranks, args):
     """stick and slip pairs (a block), open and stick ones (a ball), bonded,
     2D and 3D, 1-3 ranks; and the matrix-free product."""
-    proc = run_mpi(ranks, [os.path.join(HERE, "mpi", "pair_jacobian_check.py")] + args)
-    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    status, output = PAIR_JACOBIAN_CHECKS.result(ranks, args)
+    assert status == 0, output[-4000:]
 
 
 @pytest.mark.parametrize("integrator", ["explicit", "newmark"])

@@ -232,13 +232,27 @@ def check_summary(stdout, path, nranks):
         assert f"dt {dt:g}" in time_line[0] and f"{steps} steps" in time_line[0], time_line
 
 
+@pytest.fixture(scope="module")
+def shipped_checks(tmp_path_factory):
+    """``--check`` of every shipped input, each in a directory of its own,
+    several at a time (run_together): path -> (CompletedProcess, directory)."""
+    base = tmp_path_factory.mktemp("check")
+    jobs = {}
+    for k, path in enumerate(INPUTS):
+        work = base / f"{k}"
+        work.mkdir()
+        jobs[path] = (None, [path, "--check"], work)
+    results = run_together(jobs, timeout=120)
+    return {path: (results[path], jobs[path][2]) for path in INPUTS}
+
+
 @pytest.mark.parametrize("path", INPUTS, ids=[os.path.basename(p) for p in INPUTS])
-def test_check_shipped_input(path, tmp_path):
-    proc = run_pimpm(None, [path, "--check"], cwd=tmp_path, timeout=60)
+def test_check_shipped_input(path, shipped_checks):
+    proc, work = shipped_checks[path]
     assert proc.returncode == 0, show(proc)
     check_summary(proc.stdout, path, 1)
     assert not re.search(r"^step\s", proc.stdout, re.M)  # nothing was run
-    assert listing(tmp_path) == set(), "--check must write nothing"
+    assert listing(work) == set(), "--check must write nothing"
 
 
 @needs_mpiexec

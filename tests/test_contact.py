@@ -15,7 +15,7 @@ import pytest
 petsc4py.init([])
 from mpi4py import MPI  # noqa: E402
 
-from helpers import HERE, run_mpi, run_pimpm  # noqa: E402
+from helpers import HERE, BatchedChecks, run_mpi, run_pimpm  # noqa: E402
 from pimpm.analysis import Observer, Trace, run_to_end  # noqa: E402
 from pimpm.config import ConfigError, load_config, validate  # noqa: E402
 from pimpm.kernels import contact as kernels  # noqa: E402
@@ -178,7 +178,7 @@ def test_the_predictor_keeps_a_resting_corners_depth_and_pushes_out_the_rest():
         assert np.array_equal(weight > 0, np.array(expected) > 0)
 
 
-@pytest.mark.parametrize("nranks, dim, law, geometry, options", [
+CONTACT_JACOBIAN_CASES = [
     (1, "2d", "frictionless", "ball", []), (1, "2d", "friction", "box", []), (2, "2d", "friction", "box", []),
     (3, "2d", "friction", "half_space", []), (2, "3d", "friction", "box", []),
     (1, "3d", "frictionless", "ball", []),
@@ -189,12 +189,19 @@ def test_the_predictor_keeps_a_resting_corners_depth_and_pushes_out_the_rest():
     (3, "3d", "friction", "box", []),
     (2, "2d", "friction", "surface", []), (2, "3d", "frictionless", "surface", []),
     (1, "2d", "tied", "box", ["quasi_static", "axisymmetric"]), (2, "2d", "tied", "box", []),
-    (3, "3d", "tied", "box", ["quasi_static"])])
+    (3, "3d", "tied", "box", ["quasi_static"])]
+#: the cases of a rank count run as one MPI job (tests/mpi/batch.py)
+CONTACT_JACOBIAN_CHECKS = BatchedChecks("contact_jacobian_check.py", [
+    (nranks, [dim, law, geometry] + options) for nranks, dim, law, geometry, options in CONTACT_JACOBIAN_CASES])
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("nranks, dim, law, geometry, options", CONTACT_JACOBIAN_CASES)
 def test_the_jacobian_with_contact_equals_finite_differences(nranks, dim, law, geometry, options):
     """Every integrator's, kinematics' and shape function's tangent with
     contact (options: integrator, kinematics, shape functions)."""
-    proc = run_mpi(nranks, [f"{HERE}/mpi/contact_jacobian_check.py", dim, law, geometry] + options)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+    status, output = CONTACT_JACOBIAN_CHECKS.result(nranks, [dim, law, geometry] + options)
+    assert status == 0, output
 
 
 # ----------------------------------------------------------------- input

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import yaml
 
-from helpers import MPIEXEC, ROOT, coarse_billet, coarse_upsetting, mpi_env, write_yaml
+from helpers import MPIEXEC, NO_KILL_WAIT, ROOT, coarse_billet, coarse_upsetting, mpi_env, write_yaml
 
 pytestmark = pytest.mark.skipif(MPIEXEC is None, reason="mpiexec not found")
 
@@ -169,7 +169,10 @@ def slow_billet(directory):
 
 
 def start(cmd, cwd):
-    return subprocess.Popen(cmd, cwd=cwd, env=mpi_env(), stdout=subprocess.PIPE,
+    """A run to be signalled, with Open MPI's own wait between the SIGTERM
+    and the SIGKILL it sends the ranks (a signal to mpiexec counts on it)."""
+    env = {k: v for k, v in mpi_env().items() if k not in NO_KILL_WAIT}
+    return subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
 
