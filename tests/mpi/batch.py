@@ -1,5 +1,6 @@
 """Run one check script of this directory for several cases in one MPI job
-(run under mpiexec): ``batch.py SCRIPT ARGS... [+ ARGS...]``, each group of
+(run under mpiexec): ``batch.py SCRIPT ARGS... [+ ARGS...]`` (SCRIPT's path
+relative to this directory, or absolute), each group of
 arguments separated by ``+`` being one run of SCRIPT. Starting Python, MPI,
 PETSc and the compiled kernels takes about a second a job, more than most
 checks; the tests run dozens of cases a rank count (tests/helpers.py,
