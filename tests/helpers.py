@@ -46,9 +46,9 @@ class BatchedChecks:
     """The cases of one check script in tests/mpi/, run as one MPI job a
     rank count (tests/mpi/batch.py) when a test first asks for one of them:
     ``checks = BatchedChecks("jacobian_check.py", [(nranks, args), ...])``,
-    then ``checks.result(nranks, args)`` is (exit status, output) of that
-    case, as a job of its own would have given them (its stdout, and the
-    job's stderr)."""
+    then ``checks.result(nranks, args)`` is that case's CompletedProcess, as
+    a job of its own would have given it: its exit status (None if it did
+    not run) and stdout, and the job's stderr."""
 
     def __init__(self, script, cases, timeout=900):
         self.script, self.timeout = script, timeout
@@ -62,10 +62,8 @@ class BatchedChecks:
         if nranks not in self.results:
             self.results[nranks] = self._run(nranks)
         outputs, stderr = self.results[nranks]
-        if tuple(args) not in outputs:
-            return None, f"case {args} did not run\n{stderr[-3000:]}"
-        status, text = outputs[tuple(args)]
-        return status, text + stderr
+        status, stdout = outputs.get(tuple(args), (None, f"case {args} did not run\n"))
+        return subprocess.CompletedProcess([self.script] + args, status, stdout, stderr)
 
     def _run(self, nranks):
         groups = self.cases[nranks]

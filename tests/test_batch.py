@@ -40,19 +40,19 @@ def test_each_case_gets_its_own_output_and_status(script, nranks):
     cases = [(nranks, ["0", "a"]), (nranks, ["3", "b"]), (nranks, ["0", "c"])]
     checks = BatchedChecks(script, cases, timeout=120)
     for (_, args), status in zip(cases, (0, 3, 0)):
-        got, output = checks.result(nranks, args)
-        assert got == status, output
+        proc = checks.result(nranks, args)
+        assert proc.returncode == status, proc.stdout + proc.stderr
         # the case's own output, and no option left over from the case before
-        assert f"args={' '.join(args)} ranks={nranks} leaked=False" in output, output
-        assert output.count("args=") == 1, output
+        assert f"args={' '.join(args)} ranks={nranks} leaked=False" in proc.stdout, proc.stdout
+        assert proc.stdout.count("args=") == 1, proc.stdout
 
 
 def test_a_case_that_raises_on_one_rank_stops_the_job(script):
     checks = BatchedChecks(script, [(2, ["0", "first"]), (2, ["raise", "second"]), (2, ["0", "third"])],
                            timeout=60)
-    status, output = checks.result(2, ["0", "first"])
-    assert status == 0, output
-    status, output = checks.result(2, ["raise", "second"])
-    assert status is None and "this case fails on one rank" in output, output
-    status, output = checks.result(2, ["0", "third"])
-    assert status is None, output
+    proc = checks.result(2, ["0", "first"])
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    proc = checks.result(2, ["raise", "second"])
+    assert proc.returncode is None and "this case fails on one rank" in proc.stderr, proc.stderr
+    proc = checks.result(2, ["0", "third"])
+    assert proc.returncode is None, proc.stdout + proc.stderr

@@ -15,7 +15,7 @@ import pytest
 petsc4py.init([])
 from mpi4py import MPI  # noqa: E402
 
-from helpers import HERE, BatchedChecks, run_mpi, run_pimpm  # noqa: E402
+from helpers import HERE, BatchedChecks, run_pimpm  # noqa: E402
 from pimpm.analysis import Observer, Trace, run_to_end  # noqa: E402
 from pimpm.config import ConfigError, load_config, validate  # noqa: E402
 from pimpm.kernels import contact as kernels  # noqa: E402
@@ -200,8 +200,8 @@ CONTACT_JACOBIAN_CHECKS = BatchedChecks("contact_jacobian_check.py", [
 def test_the_jacobian_with_contact_equals_finite_differences(nranks, dim, law, geometry, options):
     """Every integrator's, kinematics' and shape function's tangent with
     contact (options: integrator, kinematics, shape functions)."""
-    status, output = CONTACT_JACOBIAN_CHECKS.result(nranks, [dim, law, geometry] + options)
-    assert status == 0, output
+    proc = CONTACT_JACOBIAN_CHECKS.result(nranks, [dim, law, geometry] + options)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
 # ----------------------------------------------------------------- input
