@@ -5,8 +5,11 @@ through :class:`Analysis`, so none re-implements the loop.
 """
 import json
 import os
+import resource
 import sys
 import time as wallclock
+
+from mpi4py import MPI
 
 from . import interrupt
 from .errors import OutputFailed, StepFailed, UsageError
@@ -14,6 +17,7 @@ from .io import History, ResultWriter, prepare_output_directory, write_results
 from .io.checkpoint import PHYSICS_KEYS, physics_json, read_checkpoint, write_checkpoint
 from .io.history import history_columns
 from .io.restart import check_restart_files
+from .resources import describe_bytes
 from .simulation import Simulation
 from .stages import log_stage
 from .step_control import TimeStepControl
@@ -258,10 +262,34 @@ class ProgressObserver(Observer):
                   file=sys.stderr, flush=True)
 
     def finish(self, analysis, status):
+        memory = memory_line(analysis.sim)          # collective
         if status == 0 and self.root:
             self.echo(f"pimpm: finished {analysis.sim.step_index} steps in "
                       f"{wallclock.perf_counter() - self.start_time:.1f} s; results in "
                       f"{self.directory}/ (particles.xdmf, grid.xdmf, history.csv)")
+            self.echo(memory)
+
+
+def memory_line(sim):
+    """What the run used, against the start-up estimate (the summary's
+    ``memory`` line): the peak resident memory of the ranks, summed and the
+    largest, and the direct solver's largest factorization. Collective."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0     # Linux: kB
+    total = sim.comm.allreduce(peak)
+    largest = sim.comm.allreduce(peak, op=MPI.MAX)
+    line = (f"pimpm: memory   peak {describe_bytes(total)} resident on {sim.comm.size} "
+            f"rank{'s' if sim.comm.size > 1 else ''}")
+    if sim.comm.size > 1:
+        line += f" ({describe_bytes(largest)} the largest)"
+    estimate = getattr(sim, "memory_estimate", None)
+    if estimate:
+        line += f", estimated {describe_bytes(estimate)}"
+    free_dofs = getattr(sim.solver, "free_dofs", None) if sim.solver is not None else None
+    factorization = getattr(free_dofs, "largest_factorization", None)
+    if factorization is not None:         # MUMPS counts whole MB (10^6 bytes)
+        used = describe_bytes(factorization[1]) if factorization[1] > 0 else "under 1 MB"
+        line += f"; the largest factorization {used} ({factorization[0]:,} free dofs, MUMPS)"
+    return line
 
 
 class Trace(Observer):

@@ -250,6 +250,9 @@ class FreeDofsKSP:
         #: ran out of it (None: MUMPS's own or the options')
         self.workspace = None
         self.workspace_retries = 0  # factorizations repeated with more work space
+        #: the largest factorization so far: (free dofs, bytes MUMPS used on all
+        #: ranks, INFOG(22)), or None (no MUMPS factorization yet)
+        self.largest_factorization = None
 
     def _inner(self, ksp):
         if self.inner is None:
@@ -335,6 +338,10 @@ class FreeDofsKSP:
             self.drop_factorization()
         self.factored = reason > 0
         self.stale = False
+        if self.factored:
+            used = mumps_bytes(self.inner.getPC())
+            if used is not None and (self.largest_factorization is None or used > self.largest_factorization[1]):
+                self.largest_factorization = (self.matrix.getSize()[0], used)
         return its + self.inner.getIterationNumber(), reason
 
     def release(self):
@@ -349,6 +356,16 @@ class FreeDofsKSP:
         viewer.printfASCII("  direct solver on the free dofs only:\n")
         if self.inner is not None:
             self.inner.view(viewer)
+
+
+def mumps_bytes(pc):
+    """Bytes of memory MUMPS's factorization in ``pc`` used, summed over the
+    ranks (INFOG(22), in units of 10^6 bytes), or None if ``pc`` holds no
+    MUMPS factorization. The same on every rank."""
+    if pc.getType() not in (PETSc.PC.Type.LU, PETSc.PC.Type.CHOLESKY) \
+            or pc.getFactorSolverType() != "mumps":
+        return None
+    return 1e6 * float(pc.getFactorMatrix().getMumpsInfog(22))
 
 
 def _grown_workspace(pc):

@@ -1,14 +1,17 @@
-"""What a problem will need, estimated from its input before anything is
-allocated: the number of unknowns against PETSc's index range, and memory
-(particles with their kernel buffers, grid vectors, the tangent matrix
+"""What a problem will need, estimated before anything is allocated: the
+number of unknowns against PETSc's index range, and memory (particles with
+their kernel buffers, grid vectors, the tangent matrix
 preallocated on the DMDA's box stencil) against what the machine has. A
-problem that cannot fit is refused with the key to change; ``--check``
-prints the estimate. The direct solver's factors come on top and are not
-estimated (they depend on the ordering); see docs/PERFORMANCE.md for
-measured peaks."""
+problem that cannot fit is refused with the key to change. Once the bodies
+are seeded, :func:`run_estimate` refines it for the summary that ``--check``
+and a run print: the particles as seeded, the tangent on the nodes they
+reach and the direct solver's factors (docs/PERFORMANCE.md, "What a run's
+memory is made of": the constants below are measured there, and a run's
+last line prints its peak against this estimate)."""
 import os
 
 import numpy as np
+from mpi4py import MPI
 
 #: bytes per particle beyond its history and footprint: fields (x, x0, v, a, F,
 #: stress, ...), the Newton iteration's buffers (F_inc, F, stress, tangent
@@ -17,6 +20,39 @@ import numpy as np
 PARTICLE_FIELDS_BYTES = 8 * 300
 #: bytes per node and unknown of the grid vectors (DMDA, SNES, nodal state)
 NODE_VECTOR_BYTES = 8 * 40
+#: resident memory of a rank before the problem's own: Python with numpy,
+#: numba's compiled kernels, PETSc, MPI and h5py (the bar in tension: 197 MiB
+#: a rank on 1 and 2 ranks; the 2 mm 3D upsetting about 212 MiB)
+PROGRAM_BYTES = 205 * 2**20
+#: peak resident bytes a material particle adds with GIMP in 2D and 3D (the
+#: slope of a run's peak against the particles per cell on a fixed grid:
+#: the billet with 2, 4 and 6 particles per cell along each axis, the 1 mm
+#: 3D upsetting with 2, 3 and 4); other shape functions differ by their
+#: footprint (FOOTPRINT_ENTRY_BYTES a node)
+MATERIAL_PARTICLE_BYTES = {2: 1190, 3: 4362}
+FOOTPRINT_ENTRY_BYTES = {2: 33, 3: 41}        # S, G, node index, active
+#: a rigid particle (the platen's 1,058 to 67,712 particles changed the 1 mm
+#: upsetting's peak by less than the runs' noise of 30 MiB)
+RIGID_PARTICLE_BYTES = 500
+#: bytes per scalar entry of the tangent's pattern on the nodes the material
+#: reaches: the block pattern, the COO indices and values, the free dofs'
+#: copy and PETSc's two matrices (the 1 mm 3D upsetting: about 74 KiB a
+#: reached node, 1,125 entries each)
+PATTERN_ENTRY_BYTES = 66
+#: MUMPS's memory for a factorization of N free dofs on 2 ranks, c N^p bytes
+#: (INFOG(22), all ranks; fitted to the billet at 0.5, 0.25 and 0.125 cm and
+#: the 3D upsetting at 2, 1 and 0.5 mm), and what each rank beyond the first
+#: adds (the 1 mm upsetting on 1-4 ranks: 83, 117, 128 and 195 MiB)
+FACTOR_MODEL = {2: (1.64e4, 0.86), 3: (6.67e3, 1.17)}
+FACTOR_PER_RANK = 0.45
+#: an iterative solver's preconditioner (GAMG's hierarchy) against the
+#: tangent (the 3D upsetting with gmres-gamg: about 10 GB at a million
+#: particles on 2 ranks, 779 MiB at 1 mm)
+PRECONDITIONER_SHARE = 0.5
+#: what the tangent's pattern and the factors grow by as the bodies deform
+#: and reach more nodes (the 0.5 mm 3D upsetting: 4.1 GiB at its fourth step,
+#: 4.9-5.3 GiB by 60%)
+DEFORMATION_GROWTH = 0.25
 
 
 def estimated_particles(config, per_body=False):
@@ -116,10 +152,100 @@ def describe_bytes(n):
     return f"{n / 1024:.3g} kB"
 
 
-def summary_line(config, ranks):
-    _, _, need, parts = estimate(config, ranks)
+def factor_bytes(free_dofs, dim, ranks):
+    """MUMPS's memory for a factorization of ``free_dofs`` unknowns on
+    ``ranks`` ranks, all of them (FACTOR_MODEL)."""
+    c, p = FACTOR_MODEL[dim]
+    return c * float(free_dofs) ** p * (1.0 + FACTOR_PER_RANK * (ranks - 1)) / (1.0 + FACTOR_PER_RANK)
+
+
+#: particles whose footprints are evaluated at once by :func:`reached_nodes`
+FOOTPRINT_CHUNK = 50_000
+
+
+def reached_nodes(sim):
+    """The nodes the material particles' shape functions reach, summed over
+    the ranks (a node that two ranks' particles reach counts twice: the
+    ranks both hold its pattern rows). Collective."""
+    grid, particles = sim.grid, sim.particles
+    reached = np.zeros(grid.n_local_nodes, dtype=np.bool_)
+    if len(particles):
+        x, half = particles["x"], sim.particle_half_sizes()
+        for start in range(0, len(particles), FOOTPRINT_CHUNK):
+            chunk = slice(start, start + FOOTPRINT_CHUNK)
+            node_index, S, _ = sim.shape.footprint(x[chunk], grid, half[chunk])
+            reached[node_index[S > 0.0]] = True
+    return sim.comm.allreduce(int(np.count_nonzero(reached)))
+
+
+def run_estimate(sim):
+    """(bytes, parts) of resident memory the run will need on all ranks
+    together, from the bodies as seeded and the solver chosen: the program
+    on each rank, the particles, the grid vectors, the tangent's pattern on
+    the nodes the material reaches and, for a direct solver, its factors of
+    their dofs. Within 20% of the runs' peaks measured in
+    docs/PERFORMANCE.md; a body that spreads over more nodes as it deforms
+    (an upsetting to 60%) needs more. Collective."""
+    dim, ranks = sim.dim, sim.comm.size
+    footprint = sim.shape.nodes_per_particle
+    per_particle = MATERIAL_PARTICLE_BYTES[dim] + (footprint - 3 ** dim) * FOOTPRINT_ENTRY_BYTES[dim]
+    parts = {"program": float(ranks * PROGRAM_BYTES),
+             "particles": float(sim.particles.global_count(sim.comm) * per_particle
+                                + sim.rigid.global_count(sim.comm) * RIGID_PARTICLE_BYTES),
+             "grid vectors": float(np.prod(sim.grid.nodes)) * dim * NODE_VECTOR_BYTES}
+    solver = sim.solver
+    if solver is not None and not solver.plan.matrix_free:
+        nodes = reached_nodes(sim)
+        blocks = (2 * sim.shape.stencil_width + 1) ** dim
+        parts["tangent matrix"] = float(nodes * blocks * dim * dim * PATTERN_ENTRY_BYTES)
+        if solver.free_dofs is not None:
+            parts["direct solver's factors"] = factor_bytes(nodes * dim, dim, ranks)
+        elif solver.plan.iterative:
+            parts["preconditioner"] = PRECONDITIONER_SHARE * parts["tangent matrix"]
+        solver_parts = ("tangent matrix", "direct solver's factors", "preconditioner")
+        parts["growth as the bodies deform"] = DEFORMATION_GROWTH * sum(parts.get(k, 0.0) for k in solver_parts)
+    return sum(parts.values()), parts
+
+
+def run_memory_problem(sim, need, parts):
+    """A one-line problem (naming the key to change) if the run's estimate
+    (:func:`run_estimate`) exceeds the memory available on a machine it
+    runs on, each machine taking its ranks' share, else None; the same on
+    every rank. A direct solver whose factors are what does not fit is
+    named with the iterative preset that needs none. Collective."""
+    comm = sim.comm
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    share = node.size / comm.size
+    node.Free()
     have = available_memory()
-    return (f"  memory    about {describe_bytes(need)} before the direct solver's factors "
+    short = comm.allreduce(have is not None and need * share > have, op=MPI.LOR)
+    if not short:
+        return None
+    have = comm.allreduce(have if have is not None else np.inf, op=MPI.MIN) / share
+    config = sim.config
+    details = ", ".join(f"{k} {describe_bytes(v)}" for k, v in parts.items())
+    factors = parts.get("direct solver's factors", 0.0) * (1.0 + DEFORMATION_GROWTH)
+    if factors and need - factors <= have:
+        where = f"solver.preset = {sim.solver.plan.preset!r}"
+        hint = ("; without the direct solver's factors it would fit: try -pimpm_preset gmres-gamg "
+                "-pimpm_fallback false (or more machines)")
+    elif max(parts, key=parts.get) == "particles":
+        from .seeding import particles_per_body
+        counts = particles_per_body(config, sim.particles, sim.rigid, comm)
+        body = int(np.argmax(counts))
+        where = f"bodies[{body}].particles_per_cell = {config['bodies'][body]['particles_per_cell']}"
+        hint = f" ({int(counts[body]):,} particles in that body)"
+    else:
+        where, hint = f"grid.cells = {list(config['grid']['cells'])}", ""
+    return (f"{where}: expected a run that fits in memory: it needs about {describe_bytes(need)} "
+            f"({details}) and this machine has {describe_bytes(have)} available{hint}")
+
+
+def summary_line(sim):
+    """The summary's ``memory`` line: the run's estimate
+    (``sim.memory_estimate`` and ``sim.memory_parts``, :func:`run_estimate`)."""
+    need, parts = sim.memory_estimate, sim.memory_parts
+    have = available_memory()
+    return (f"  memory    about {describe_bytes(need)} "
             f"({', '.join(f'{k} {describe_bytes(v)}' for k, v in parts.items())})"
             + (f"; {describe_bytes(have)} available" if have else ""))
-

@@ -131,8 +131,14 @@ class Simulation:
             problem = self.integrator.check_time_step(self)
             if problem:
                 raise SetupError(problem)
-            return
-        self._make_solver()
+        else:
+            self._make_solver()
+        #: what the whole run will need (bytes, its parts): the summary prints it,
+        #: the run's last line compares it with the peak
+        self.memory_estimate, self.memory_parts = resources.run_estimate(self)
+        problem = resources.run_memory_problem(self, self.memory_estimate, self.memory_parts)
+        if problem:
+            raise SetupError(problem)
 
     def _term_fields(self):
         """The particle fields the contact tools carry from step to step (each

@@ -73,7 +73,7 @@ def summary(sim, config):
                      f"explicit CFL step {dt_explicit:.3g}), end {t['end_time']:g}, "
                      f"{steps} steps")
     lines.append(f"  output    {config['output']['directory']} every {config['output']['every']} steps")
-    lines.append(resources.summary_line(config, comm.size))
+    lines.append(resources.summary_line(sim))
     if sim.solver is not None:
         lines.append(f"  solver    {sim.solver.describe()}")
     else:
