@@ -281,11 +281,9 @@ def memory_line(sim):
             f"rank{'s' if sim.comm.size > 1 else ''}")
     if sim.comm.size > 1:
         line += f" ({describe_bytes(largest)} the largest)"
-    estimate = getattr(sim, "memory_estimate", None)
-    if estimate:
-        line += f", estimated {describe_bytes(estimate)}"
-    free_dofs = getattr(sim.solver, "free_dofs", None) if sim.solver is not None else None
-    factorization = getattr(free_dofs, "largest_factorization", None)
+    line += f", estimated {describe_bytes(sim.memory_estimate)}"
+    free_dofs = sim.solver.free_dofs if sim.solver is not None else None
+    factorization = free_dofs.largest_factorization if free_dofs is not None else None
     if factorization is not None:         # MUMPS counts whole MB (10^6 bytes)
         used = describe_bytes(factorization[1]) if factorization[1] > 0 else "under 1 MB"
         line += f"; the largest factorization {used} ({factorization[0]:,} free dofs, MUMPS)"

@@ -358,25 +358,28 @@ class FreeDofsKSP:
             self.inner.view(viewer)
 
 
+def _mumps_factor(pc):
+    """The factor matrix of ``pc`` if it is a MUMPS LU or Cholesky, else None."""
+    if pc.getType() not in (PETSc.PC.Type.LU, PETSc.PC.Type.CHOLESKY) \
+            or pc.getFactorSolverType() != "mumps":
+        return None
+    return pc.getFactorMatrix()
+
+
 def mumps_bytes(pc):
     """Bytes of memory MUMPS's factorization in ``pc`` used, summed over the
     ranks (INFOG(22), in units of 10^6 bytes), or None if ``pc`` holds no
     MUMPS factorization. The same on every rank."""
-    if pc.getType() not in (PETSc.PC.Type.LU, PETSc.PC.Type.CHOLESKY) \
-            or pc.getFactorSolverType() != "mumps":
-        return None
-    return 1e6 * float(pc.getFactorMatrix().getMumpsInfog(22))
+    factor = _mumps_factor(pc)
+    return None if factor is None else 1e6 * float(factor.getMumpsInfog(22))
 
 
 def _grown_workspace(pc):
     """Twice the work-space increase (ICNTL(14)) of a MUMPS factorization of
     ``pc`` that failed for want of work space, else None. The same on every
     rank (INFOG is global)."""
-    if pc.getType() not in (PETSc.PC.Type.LU, PETSc.PC.Type.CHOLESKY) \
-            or pc.getFactorSolverType() != "mumps":
-        return None
-    factor = pc.getFactorMatrix()
-    if factor.getMumpsInfog(1) not in MUMPS_WORKSPACE_ERRORS:
+    factor = _mumps_factor(pc)
+    if factor is None or factor.getMumpsInfog(1) not in MUMPS_WORKSPACE_ERRORS:
         return None
     return 2 * max(int(factor.getMumpsIcntl(14)), 20)
 

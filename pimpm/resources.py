@@ -131,18 +131,23 @@ def check(config, ranks, index_bits):
     have = available_memory()
     if have is not None and need > have:
         if max(parts, key=parts.get) == "particles":
-            counts = estimated_particles(config, per_body=True)
-            i = int(np.argmax(counts))
-            geo = config["bodies"][i]["geometry"]
-            where = (f"bodies[{i}].geometry.file = {geo['file']!r} ({geo['particles']} particles)"
-                     if "particles" in geo else
-                     f"bodies[{i}].particles_per_cell = {config['bodies'][i]['particles_per_cell']}")
+            where, _ = _fullest_body(config, estimated_particles(config, per_body=True))
         else:
             where = f"grid.cells = {list(cells)}"
         details = ", ".join(f"{k} {describe_bytes(v)}" for k, v in parts.items())
         return (f"{where}: expected a problem that fits in memory: it needs about "
                 f"{describe_bytes(need)} ({details}) and this machine has {describe_bytes(have)} available")
     return None
+
+
+def _fullest_body(config, counts):
+    """(the key that sets its particles, its index) of the body with the most
+    of ``counts`` (particles per body)."""
+    i = int(np.argmax(counts))
+    geo = config["bodies"][i]["geometry"]
+    if "particles" in geo:                # geometries from files
+        return f"bodies[{i}].geometry.file = {geo['file']!r} ({geo['particles']} particles)", i
+    return f"bodies[{i}].particles_per_cell = {config['bodies'][i]['particles_per_cell']}", i
 
 
 def describe_bytes(n):
@@ -232,13 +237,14 @@ def run_memory_problem(sim, need, parts):
     elif max(parts, key=parts.get) == "particles":
         from .seeding import particles_per_body
         counts = particles_per_body(config, sim.particles, sim.rigid, comm)
-        body = int(np.argmax(counts))
-        where = f"bodies[{body}].particles_per_cell = {config['bodies'][body]['particles_per_cell']}"
-        hint = f" ({int(counts[body]):,} particles in that body)"
+        where, body = _fullest_body(config, counts)
+        hint = f" ({int(counts[body]):,} particles seeded in that body)"
     else:
         where, hint = f"grid.cells = {list(config['grid']['cells'])}", ""
+    machine = ("this machine has" if share == 1.0 else
+               "its machines have (the least of them, scaled from its share of the ranks)")
     return (f"{where}: expected a run that fits in memory: it needs about {describe_bytes(need)} "
-            f"({details}) and this machine has {describe_bytes(have)} available{hint}")
+            f"({details}) and {machine} {describe_bytes(have)} available{hint}")
 
 
 def summary_line(sim):

@@ -49,7 +49,8 @@ def mib(number, unit):
 
 
 def run(ranks, path, overrides, options):
-    """(peak MiB, estimate MiB, largest factorization MiB or None, steps) of one whole run."""
+    """(peak MiB, estimate MiB, largest factorization MiB or None, steps, the
+    run's memory line) of one whole run."""
     with tempfile.TemporaryDirectory() as out:
         cmd = ["mpiexec", "-n", str(ranks), sys.executable, "-m", "pimpm", os.path.join(ROOT, path),
                "--output", out, "--overwrite"] + [a for o in overrides for a in ("--set", o)] + options
