@@ -5,12 +5,17 @@ every rank (tests/test_reliability.py, docs/INPUT.md).
 RuntimeError when it reaches WHERE during step STEP (1-based; for
 ``output``, the output written after step STEP; 0 is the initial output).
 WHERE is one of ``step`` (the start of a step), ``residual`` (inside the
-SNES residual callback) or ``output`` (inside the HDF5 write). Unset, it
-costs one dictionary look-up per call site.
+SNES residual callback), ``jacobian`` (inside the SNES Jacobian callback: a
+PETSc.Error, as PETSc raises when a collective call fails on some ranks
+only, or on all; :func:`pimpm.solver.failed_on_some_rank`) or ``output``
+(inside the HDF5 write). RANK -1 is every rank. Unset, it costs one
+dictionary look-up per call site.
 """
 import os
 
-POINTS = ("step", "residual", "output")
+POINTS = ("step", "residual", "jacobian", "output")
+#: the PETSc error code the ``jacobian`` point raises (PETSC_ERR_ARG_INCOMP)
+PETSC_ERROR = 75
 
 
 def parse_injection(variable, what, choices):
@@ -31,5 +36,8 @@ _PLAN = parse_injection("PIMPM_INJECT_FAILURE", "WHERE", POINTS)
 
 def checkpoint(where, rank, step):
     """Raise the injected failure if this is its place, rank and step."""
-    if _PLAN is not None and _PLAN == (where, rank, step):
+    if _PLAN is not None and _PLAN[0] == where and _PLAN[1] in (rank, -1) and _PLAN[2] == step:
+        if where == "jacobian":
+            from petsc4py import PETSc
+            raise PETSc.Error(PETSC_ERROR)
         raise RuntimeError(f"injected failure (PIMPM_INJECT_FAILURE) at {where}, rank {rank}, step {step}")

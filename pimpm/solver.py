@@ -7,6 +7,8 @@ per-problem adjustments > preset > the program's defaults); PETSc reads the
 options from its database.
 """
 import atexit
+import sys
+import time
 import weakref
 from contextlib import contextmanager
 
@@ -20,6 +22,46 @@ from . import presets
 from .line_search import FullStepFirst
 from .linear import FallbackKSP, FreeDofsKSP, free_dofs_operator, rigid_body_near_null_space
 from .stages import log_stage
+
+
+#: how long (s) a rank whose part of a collective PETSc call raised an error
+#: waits for the other ranks to come out of that call. A failure that PETSc
+#: reports on every rank (MUMPS's factorization of a singular tangent) brings
+#: them out together; one that only some ranks raise (geometric multigrid
+#: coarsening a DMDA whose local part does not coarsen on this rank) leaves
+#: the others waiting inside the call for ever.
+DESYNC_TIMEOUT = 10.0
+
+
+def failed_on_some_rank(comm, error, where):
+    """After a collective PETSc call (``where``, for the message) that
+    raised the PETSc.Error ``error`` on this rank (None if it returned):
+    the largest error code raised on any rank, the same on every rank (0:
+    none). Each rank must call this after the call, so that a step that
+    failed anywhere fails everywhere. A rank that raised waits up to
+    DESYNC_TIMEOUT for the others; if they do not come, they are still
+    inside the call, which failed on this rank alone, and no step can be
+    retried: it says so and stops every rank (MPI_Abort, status 1) rather
+    than leave them waiting."""
+    code = 0 if error is None else int(getattr(error, "ierr", 1) or 1)
+    if comm.size == 1:
+        return code
+    request = comm.Ibarrier()
+    if code:
+        deadline = time.monotonic() + DESYNC_TIMEOUT
+        while not request.Test():
+            if time.monotonic() > deadline:
+                sys.stdout.flush()
+                sys.stderr.write(f"pimpm: error on rank {comm.rank} of {comm.size}: PETSc error {code} in "
+                                 f"{where} on this rank alone, while the other ranks are still inside that "
+                                 f"collective call (a PETSc option this grid or partition cannot take?); "
+                                 f"stopping all ranks\n")
+                sys.stderr.flush()
+                comm.Abort(1)
+            time.sleep(0.005)
+    else:
+        request.Wait()
+    return comm.allreduce(code, op=MPI.MAX)
 
 
 def diagnose_solver_options(config, err):
@@ -437,11 +479,14 @@ class NewtonSolver:
             problem.form_jacobian(self.snes, self.X, self.J, self.J)
             ksp = self.snes.getKSP()
             ksp.setOperators(self.J, self.J)
+            error = None
             try:
                 ksp.solve(b, y)
-                solved = ksp.getConvergedReason() > 0
-            except PETSc.Error:
-                solved = False
+            except PETSc.Error as err:
+                error = err
+            failed = failed_on_some_rank(grid.comm, error, "the linear predictor's solve")
+            solved = not failed and ksp.getConvergedReason() > 0
+            if failed:
                 self._drop_factorizations()
         out = y.getArray(readonly=True).copy()
         b.destroy()
@@ -475,6 +520,8 @@ class NewtonSolver:
                 # singular tangent: a failed step, cut and retried like the
                 # others, after dropping the preconditioner's factors
                 petsc_error = err
+            petsc_error = failed_on_some_rank(self.grid.comm, petsc_error, "the Newton solve")
+            if petsc_error:
                 self._drop_factorizations()
         reason = self.snes.getConvergedReason()
         norms, lits = self.snes.getConvergenceHistory()
@@ -484,10 +531,10 @@ class NewtonSolver:
         # backtracks; with -snes_mf_operator the Krylov products evaluate the
         # residual too, so backtracks cannot be counted this way (-1).
         extra = -1 if self._mf_operator() else problem.residual_evaluations - 1 - its
-        if petsc_error is not None:
+        if petsc_error:
             reason = min(int(reason), -1)
-        reason_name = (_reason_name(reason) if petsc_error is None else
-                       f"PETSc error {petsc_error.ierr} in the linear solve (singular tangent?)")
+        reason_name = (_reason_name(reason) if not petsc_error else
+                       f"PETSc error {petsc_error} in the linear solve (singular tangent?)")
         if (reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE and self.gw_test is None
                 and len(norms) and norms[-1] > max(self.snes.getTolerances()[1], SNORM_RESIDUAL_FRACTION * norms[0])):
             reason = PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH
@@ -499,7 +546,7 @@ class NewtonSolver:
         info = {
             "reason": int(reason),
             "reason_name": reason_name,
-            "converged": reason > 0 and petsc_error is None,
+            "converged": reason > 0 and not petsc_error,
             "newton_iterations": its,
             "linear_iterations": linear,
             "backtracks": int(extra) if extra < 0 else max(0, int(extra)),

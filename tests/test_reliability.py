@@ -38,6 +38,32 @@ def test_a_failure_on_one_rank_stops_every_rank(tmp_path, plan):
     assert "Traceback (most recent call last)" in proc.stderr
 
 
+
+def test_a_petsc_error_on_one_rank_stops_every_rank(tmp_path):
+    """A PETSc error that only some ranks raise inside the Newton solve
+    (geometric multigrid coarsening a DMDA whose local part does not coarsen
+    on rank 0 did: -pc_type mg -pc_mg_levels 2 on the 2-rank billet) leaves the
+    other ranks inside a collective call: the failing rank waits
+    DESYNC_TIMEOUT for them and stops every rank, instead of cutting the step
+    alone and hanging the run."""
+    from pimpm.solver import DESYNC_TIMEOUT
+    proc, elapsed = run_with_failure(tmp_path, "jacobian:1:2")
+    assert proc.returncode != 0
+    assert elapsed < DESYNC_TIMEOUT + 30.0
+    assert ("pimpm: error on rank 1 of 2: PETSc error 75 in the Newton solve on this rank alone, while the "
+            "other ranks are still inside that collective call") in proc.stderr
+
+
+def test_a_petsc_error_on_every_rank_is_a_failed_step(tmp_path):
+    """The same error on every rank (as MUMPS reports a failed factorization)
+    is a failed step, cut and retried on every rank: no rank stops the others."""
+    proc, elapsed = run_with_failure(tmp_path, "jacobian:-1:2")
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    said = proc.stdout + proc.stderr
+    assert "PETSc error 75 in the linear solve (singular tangent?) after 0 iterations; cutting the step" in said
+    assert "even after 4 step cuts" in said
+    assert "MPI_ABORT" not in said
+
 @pytest.mark.parametrize("options", [(), ("-pimpm_preset", "gmres-gamg"), ("-pimpm_preset", "matrix-free")])
 def test_a_failure_on_one_rank_of_one_is_a_traceback_and_status_1(tmp_path, options):
     """Also with pimpm's Python contexts in PETSc objects (the python KSPs of

@@ -356,6 +356,7 @@ class StepProblem:
     def form_jacobian(self, snes, X, J, P):
         st = self.state
         grid = self.grid
+        faults.checkpoint("jacobian", grid.comm.rank, self.step)
         u_local = grid.vec_to_local(X)
         evaluation = self.evaluate(X.getArray(readonly=True), u_local)
         free_operator = free_dofs_operator(P)
