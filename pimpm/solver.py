@@ -20,7 +20,8 @@ from .convergence import GuilkeyWeissTest
 from .implicit.shell import TangentShell
 from . import presets
 from .line_search import FullStepFirst
-from .linear import FallbackKSP, FreeDofsKSP, free_dofs_operator, rigid_body_near_null_space
+from .linear import (FallbackKSP, FreeDofsKSP, free_dofs_operator, reset_for_new_pattern,
+                     rigid_body_near_null_space)
 from .stages import log_stage
 
 
@@ -351,6 +352,7 @@ class NewtonSolver:
             self.snes.setJacobian(self.problem.form_jacobian, J, J)
         _destroy_matrix(self.J)
         self.J = J
+        reset_for_new_pattern(self.snes.getKSP())
 
     def end_step(self):
         """The step is over (its particles updated, or it failed): drop its
