@@ -7,7 +7,7 @@ wall time (median of --repeats, presets alternating), Newton and linear
 iterations, direct fallbacks, step cuts, the share of the Solve stage, and
 the final platen force against the MUMPS run's.
 
-    python scripts/bench_presets.py [--presets mumps cg-gamg gmres-gamg jfnk matrix-free]
+    python scripts/bench_presets.py [--presets mumps cg-gamg gmres-gamg gmres-hypre jfnk matrix-free]
         [--ranks 2] [--repeats 1] [--json docs/data/bench_presets.json]
 """
 import argparse
@@ -57,7 +57,7 @@ def run(preset, ranks, workdir):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--presets", nargs="+", default=["mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free"])
+    ap.add_argument("--presets", nargs="+", default=["mumps", "cg-gamg", "gmres-gamg", "gmres-hypre", "jfnk", "matrix-free"])
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "bench_presets.json"))

@@ -12,7 +12,8 @@ def test_what_a_preset_implies_is_derived_from_its_options():
     derived = {name: (presets.iterative(o), presets.needs_symmetric_tangent(o), presets.matrix_free(o))
                for name, o in presets.PRESETS.items()}
     assert derived == {"mumps": (False, False, False), "cg-gamg": (True, True, False),
-                       "gmres-gamg": (True, False, False), "jfnk": (True, False, False),
+                       "gmres-gamg": (True, False, False), "gmres-hypre": (True, False, False),
+                       "jfnk": (True, False, False),
                        "matrix-free": (True, False, True)}
     assert presets.iterative({}) is False          # PETSc's KSP default here is preonly
 

@@ -41,7 +41,7 @@ def test_every_preset_gives_the_same_billet():
     """2 steps (10% compression) of the 1 cm billet with every preset (the
     matrix-free ones evaluate the residual ~500 times a step)."""
     results = {}
-    for preset in ("mumps", "cg-gamg", "gmres-gamg", "jfnk", "matrix-free"):
+    for preset in ("mumps", "cg-gamg", "gmres-gamg", "gmres-hypre", "jfnk", "matrix-free"):
         sim, infos = run_steps(billet_config(preset, end_time=0.02), 2)
         results[preset] = bulge(sim), infos
         assert all(info["newton_iterations"] <= 10 for info in infos), preset
