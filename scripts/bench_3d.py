@@ -7,7 +7,8 @@ input does), to --reduction of the height (default 60%).
 Variants (any subset, --variants): `default` (the program's 3D defaults),
 `per-iteration` (a factorization at every Newton iteration and the plain
 predictor: -pimpm_reuse_factorization false -pimpm_linear_predictor false),
-`gmres-gamg` (-pimpm_preset gmres-gamg -pimpm_fallback false),
+`gmres-gamg` (-pimpm_preset gmres-gamg -pimpm_fallback false), `gmres-hypre`
+(likewise with BoomerAMG),
 `baseline` (`--baseline REV` run from its own git worktree with
 -pimpm_preset gmres-gamg -pimpm_fallback false, the set-up issue 31 measured)
 and `baseline-default` (that worktree with its own defaults: a change side by
@@ -50,6 +51,7 @@ HALF_HEIGHT = 15.0                 # mm
 OPTIONS = {"default": [],
            "per-iteration": ["-pimpm_reuse_factorization", "false", "-pimpm_linear_predictor", "false"],
            "gmres-gamg": ["-pimpm_preset", "gmres-gamg", "-pimpm_fallback", "false"],
+           "gmres-hypre": ["-pimpm_preset", "gmres-hypre", "-pimpm_fallback", "false"],
            "baseline": ["-pimpm_preset", "gmres-gamg", "-pimpm_fallback", "false"],
            "baseline-default": []}
 
