@@ -17,8 +17,8 @@ from petsc4py import PETSc
 #: overlapping subdomains, grown on the first matrix's graph) when the KSP is
 #: handed a new matrix with a new nonzero pattern, as each step's is: they are
 #: reset then (:func:`reset_for_new_pattern`). Measured on the 0.5 cm billet
-#: (2 particles per cell, 4 steps, docs/PERFORMANCE.md "Geometric multigrid
-#: on the DMDA"): -pc_type mg -pc_mg_levels 2 took 156 GMRES iterations a
+#: (2 particles per cell, 4 steps, docs/PERFORMANCE.md "Multigrid on MPM
+#: tangents"): -pc_type mg -pc_mg_levels 2 took 156 GMRES iterations a
 #: Newton iteration from the second step on without the reset and 12 with it
 #: (15 in the first step); ASM on 2 ranks 49 against 44. GAMG rebuilds itself
 #: (and fails after PCReset), ILU, block Jacobi and BoomerAMG took the same

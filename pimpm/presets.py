@@ -30,10 +30,11 @@ PRESETS = {
     # strong threshold of 0.5 (hypre's advice for 3D): 11-14 GMRES iterations
     # a Newton iteration on the billet at 0.5, 0.25 and 0.125 cm where GAMG's
     # grow from 35 to 72, and 35-54 against 54-75 on the 3D upsetting's
-    # plastic tangents at 1 and 0.5 mm; a third of the time of BoomerAMG's
-    # defaults on the billet, 0.69 on the 1 mm upsetting; slower than GAMG at a
-    # million particles in 3D, 138.7 against 79.5 s a step (docs/PERFORMANCE.md,
-    # "Multigrid on MPM tangents")
+    # plastic tangents at 1 and 0.5 mm; 0.84 of the time of BoomerAMG's
+    # defaults on the 0.25 cm billet and 0.69 on the 1 mm upsetting (2 ranks,
+    # alternating whole runs); slower than GAMG at a million particles in 3D,
+    # 138.7 against 79.5 s a step (docs/PERFORMANCE.md, "Multigrid on MPM
+    # tangents")
     "gmres-hypre": {"ksp_type": "gmres", "pc_type": "hypre", "pc_hypre_type": "boomeramg",
                     "pc_hypre_boomeramg_strong_threshold": "0.5", "pc_hypre_boomeramg_coarsen_type": "HMIS",
                     "pc_hypre_boomeramg_interp_type": "ext+i", "ksp_rtol": "1e-8",

@@ -34,17 +34,19 @@ from .stages import log_stage
 DESYNC_TIMEOUT = 10.0
 
 
-def failed_on_some_rank(comm, error, where):
+def failed_on_some_rank(comm, code, where):
     """After a collective PETSc call (``where``, for the message) that
-    raised the PETSc.Error ``error`` on this rank (None if it returned):
-    the largest error code raised on any rank, the same on every rank (0:
-    none). Each rank must call this after the call, so that a step that
-    failed anywhere fails everywhere. A rank that raised waits up to
+    raised a PETSc error with ``code`` on this rank (0 if it returned): the
+    largest error code raised on any rank, the same on every rank (0:
+    none). The caller keeps the code, not the exception: its traceback
+    would hold the solver's frames, and with them PETSc objects with Python
+    contexts, past PetscFinalize (a crash at exit). Each rank must call
+    this after the call, so that a step that failed anywhere fails
+    everywhere. A rank that raised waits up to
     DESYNC_TIMEOUT for the others; if they do not come, they are still
     inside the call, which failed on this rank alone, and no step can be
     retried: it says so and stops every rank (MPI_Abort, status 1) rather
     than leave them waiting."""
-    code = 0 if error is None else int(getattr(error, "ierr", 1) or 1)
     if comm.size == 1:
         return code
     request = comm.Ibarrier()
@@ -481,12 +483,12 @@ class NewtonSolver:
             problem.form_jacobian(self.snes, self.X, self.J, self.J)
             ksp = self.snes.getKSP()
             ksp.setOperators(self.J, self.J)
-            error = None
+            code = 0
             try:
                 ksp.solve(b, y)
             except PETSc.Error as err:
-                error = err
-            failed = failed_on_some_rank(grid.comm, error, "the linear predictor's solve")
+                code = err.ierr or 1
+            failed = failed_on_some_rank(grid.comm, code, "the linear predictor's solve")
             solved = not failed and ksp.getConvergedReason() > 0
             if failed:
                 self._drop_factorizations()
@@ -511,7 +513,7 @@ class NewtonSolver:
         skipped_before = self.fallback.skipped if self.fallback else 0
         self.X.getArray()[:] = initial_guess
         self.snes.setConvergenceHistory(length=1000, reset=True)
-        petsc_error = None
+        error_code = 0          # the PETSc error code this rank raised in the solve (0: none)
         # the options stay in the database for the whole solve: PCSetUp (GAMG
         # level smoothers, the MUMPS factor) reads them at first use
         with log_stage(self.stages.get("Solve")), scoped_options(self.options):
@@ -521,9 +523,10 @@ class NewtonSolver:
                 # e.g. MUMPS solving with a factorization that failed on a
                 # singular tangent: a failed step, cut and retried like the
                 # others, after dropping the preconditioner's factors
-                petsc_error = err
-            petsc_error = failed_on_some_rank(self.grid.comm, petsc_error, "the Newton solve")
-            if petsc_error:
+                error_code = err.ierr or 1
+            # the largest PETSc error code any rank raised (0: none)
+            error_code = failed_on_some_rank(self.grid.comm, error_code, "the Newton solve")
+            if error_code:
                 self._drop_factorizations()
         reason = self.snes.getConvergedReason()
         norms, lits = self.snes.getConvergenceHistory()
@@ -533,10 +536,10 @@ class NewtonSolver:
         # backtracks; with -snes_mf_operator the Krylov products evaluate the
         # residual too, so backtracks cannot be counted this way (-1).
         extra = -1 if self._mf_operator() else problem.residual_evaluations - 1 - its
-        if petsc_error:
+        if error_code:
             reason = min(int(reason), -1)
-        reason_name = (_reason_name(reason) if not petsc_error else
-                       f"PETSc error {petsc_error} in the linear solve (singular tangent?)")
+        reason_name = (_reason_name(reason) if not error_code else
+                       f"PETSc error {error_code} in the linear solve (singular tangent?)")
         if (reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE and self.gw_test is None
                 and len(norms) and norms[-1] > max(self.snes.getTolerances()[1], SNORM_RESIDUAL_FRACTION * norms[0])):
             reason = PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH
@@ -548,7 +551,7 @@ class NewtonSolver:
         info = {
             "reason": int(reason),
             "reason_name": reason_name,
-            "converged": reason > 0 and not petsc_error,
+            "converged": reason > 0 and not error_code,
             "newton_iterations": its,
             "linear_iterations": linear,
             "backtracks": int(extra) if extra < 0 else max(0, int(extra)),
