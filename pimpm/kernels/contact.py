@@ -479,17 +479,16 @@ def contact_faces(kind, params, x, offset_end, faces):
 
 
 @jit_inline
-def _trial_slip(n, H, slip, history, dim, s, ds):
+def _trial_slip(n, H, slip, history, dim, s, ds, v, Hv):
     """The trial elastic slip s = P v, v = history + slip (dv/dy = I; P = I -
     n n^T), and its derivative ds/dy = P - (n.v) H - n (H v)^T, into ``s``
-    and ``ds``. Returns |s|^2."""
-    v = np.empty(3)
+    and ``ds`` (``v``, ``Hv``: scratch of 3). Returns |s|^2."""
     nv = 0.0
     for a in range(dim):
         v[a] = history[a] + slip[a]
         nv += n[a] * v[a]
-    Hv = np.zeros(3)
     for a in range(dim):
+        Hv[a] = 0.0
         for b in range(dim):
             Hv[a] += H[a, b] * v[b]
     norm2 = 0.0
@@ -502,14 +501,13 @@ def _trial_slip(n, H, slip, history, dim, s, ds):
 
 
 @jit_inline
-def _tied_point(n, H, phi, slip, history, area, kn, kt, dim, f, D, traction, elastic):
+def _tied_point(n, H, phi, slip, history, area, kn, kt, dim, f, D, traction, elastic, work):
     """A tied point: the penalty p = -kn phi in both directions (it pulls as
     well as pushes) and a tangential spring t = -kt s on the elastic slip
     s = P (history + slip), never released. Returns (STICK, p, 0)."""
     p = -kn * phi
-    s = np.empty(3)
-    ds = np.empty((3, 3))
-    _trial_slip(n, H, slip, history, dim, s, ds)
+    s, ds = work[0, 1], work[3]
+    _trial_slip(n, H, slip, history, dim, s, ds, work[1, 1], work[1, 2])
     for a in range(dim):
         t = -kt * s[a]
         elastic[a] = s[a]
@@ -520,9 +518,22 @@ def _tied_point(n, H, phi, slip, history, area, kn, kt, dim, f, D, traction, ela
     return STICK, p, 0.0
 
 
+#: the scratch :func:`contact_point_in` works in: (CONTACT_WORK, 3, 3)
+CONTACT_WORK = 5
+
+
 @jit
 def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, friction, dim, f, D, traction,
                   elastic, face=-1, hold=False, applied=-1.0, onset=0.0, tied=False):
+    """:func:`contact_point_in` with its own scratch (for one point; a loop
+    over points hands :func:`contact_point_in` one scratch for all)."""
+    return contact_point_in(kind, params, y, slip, history, area, kn, stick, kt, mu, friction, dim, f, D,
+                            traction, elastic, face, hold, applied, onset, tied, np.empty((CONTACT_WORK, 3, 3)))
+
+
+@jit
+def contact_point_in(kind, params, y, slip, history, area, kn, stick, kt, mu, friction, dim, f, D, traction,
+                     elastic, face, hold, applied, onset, tied, work):
     """The contact law at one point: the force ``f`` on the body (dim), its
     derivative ``D`` = df/dy (dim x dim), the tangential traction on the
     body ``traction`` (dim) and the status (OPEN, STICK, SLIP), for the point
@@ -573,10 +584,12 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
     at once, a corner of the upsetting's bulge that folds onto the platen
     flipped between open and tied from one Newton iterate to the next, and
     the 0.25 mm run failed near 59% with some tangential stiffnesses.
+    ``work``: scratch, (CONTACT_WORK, 3, 3) (a few small arrays allocated
+    at every point cost more than the law itself on the open points of a
+    frictional platen).
     Returns (status, pressure, the slip beyond the elastic one: the
     frictional dissipation is area mu p times it)."""
-    n = np.empty(3)
-    H = np.empty((3, 3))
+    n, H = work[0, 0], work[2]
     phi = tool_distance(kind, params, y, dim, n, H, face)
     for a in range(dim):
         f[a] = 0.0
@@ -586,7 +599,7 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
             D[a, b] = 0.0
     if tied:
         if hold:                              # tied: bilateral and sticking, once touched
-            return _tied_point(n, H, phi, slip, history, area, kn, kt, dim, f, D, traction, elastic)
+            return _tied_point(n, H, phi, slip, history, area, kn, kt, dim, f, D, traction, elastic, work)
         friction = False                      # not yet: it slides freely over its first step in contact
     if applied >= 0.0:                        # the explicit step's pressure, where the corner is now
         if not applied > 0.0:
@@ -614,11 +627,8 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
             D[a, b] = area * (-kp * n[a] * n[b] + p * H[a, b])
     if not friction:
         return SLIP, p, 0.0
-    s = np.empty(3)
-    ds = np.empty((3, 3))
-    norm = np.sqrt(_trial_slip(n, H, slip, history, dim, s, ds))
-    t = np.empty(3)
-    dt = np.empty((3, 3))
+    s, ds, t, dt = work[0, 1], work[3], work[0, 2], work[4]
+    norm = np.sqrt(_trial_slip(n, H, slip, history, dim, s, ds, work[1, 1], work[1, 2]))
     plastic = 0.0
     # the tangential stiffness k = mu p / stick, at most kt (if kt > 0): beyond
     # the pressure kt stick / mu the elastic slip limit grows as mu p / kt
@@ -637,7 +647,7 @@ def contact_point(kind, params, y, slip, history, area, kn, stick, kt, mu, frict
     else:                                     # slip: t = -mu p e, e = s / |s|
         status = SLIP
         plastic = norm - limit                # the slip beyond the elastic one
-        e = np.empty(3)
+        e = work[1, 0]
         for a in range(dim):
             e[a] = s[a] / norm
             t[a] = -mu * p * e[a]
@@ -745,11 +755,13 @@ def _scatter_corner(W, node_index, p, c, dim, vector, out):
 
 
 @jit
-def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end, increment, history,
+def contact_forces(kind, params, node_index, S, G, W, x, offsets, u_local, offset_end, increment, history,
                    area, faces, kn, stick, kt, mu, friction, held, force_local, D, status, pressure, traction,
                    elastic, dissipation, corner_force, applied, tied=False):
     """The contact term at the iterate ``u_local``: each corner's force on
-    the body scattered to its particle's nodes (added to ``force_local``),
+    the body scattered to its particle's nodes (added to ``force_local``;
+    ``S``, ``G``: the particles' shape functions and gradients, ``W``: the
+    corners' weights :func:`corner_weights` made of them),
     and per corner its derivative ``D`` (n, corners, dim, dim), status,
     pressure, tangential traction on the body, elastic slip (the next
     step's ``history``), frictional dissipation over the step and force on
@@ -763,14 +775,34 @@ def contact_forces(kind, params, node_index, W, x, offsets, u_local, offset_end,
     slip = np.empty(3)
     f = np.empty(3)
     t = np.empty(3)
+    work = np.empty((CONTACT_WORK, 3, 3))
+    u_p = np.empty(3)
+    grad = np.empty((3, 3))
     for p in range(n_particles):
-        for c in range(corners):
-            _corner_at(W, node_index, u_local, x, offsets, offset_end, p, c, dim, y, moved)
+        # a corner moves by sum_I (S_Ip + G_Ip . r_c) u_I = u_p + grad_p r_c (corner_weights): the
+        # particle's displacement and its gradient, gathered once for its corners
+        for a in range(dim):
+            u_p[a] = 0.0
+            for b in range(dim):
+                grad[a, b] = 0.0
+        for k in range(nn):
+            i = node_index[p, k]
             for a in range(dim):
-                slip[a] = moved[a] - increment[a]
-            s, pr, plastic = contact_point(kind, params, y, slip, history[p, c], area[p, c], kn, stick, kt, mu,
-                                  friction, dim, f, D[p, c], t, elastic[p, c], faces[p], held[p, c],
-                                  applied[p, c], 0.0, tied)
+                u = u_local[i, a]
+                u_p[a] += S[p, k] * u
+                for b in range(dim):
+                    grad[a, b] += u * G[p, k, b]
+        for c in range(corners):
+            for a in range(dim):
+                m = u_p[a]
+                for b in range(dim):
+                    m += grad[a, b] * offsets[p, c, b]
+                moved[a] = m
+                y[a] = x[p, a] + offsets[p, c, a] + m - offset_end[a]
+                slip[a] = m - increment[a]
+            s, pr, plastic = contact_point_in(kind, params, y, slip, history[p, c], area[p, c], kn, stick, kt, mu,
+                                              friction, dim, f, D[p, c], t, elastic[p, c], faces[p], held[p, c],
+                                              applied[p, c], 0.0, tied, work)
             status[p, c] = s
             pressure[p, c] = pr
             for a in range(dim):

@@ -28,7 +28,7 @@ At a node that two fields f and g both reach:
 """
 import numpy as np
 
-from .contact import HALF_SPACE, HELD, OPEN, SLIP, STICK, contact_point  # noqa: F401 (a pair's state: the law's)
+from .contact import CONTACT_WORK, HALF_SPACE, HELD, OPEN, SLIP, STICK, contact_point_in  # noqa: F401 (a pair's state: the law's)
 from .jit import jit, jit_inline
 
 BONDED, FRICTIONLESS, FRICTION = 0, 1, 2
@@ -292,6 +292,7 @@ def pair_forces(nodes, fields, normals, gaps, law, mu, u, dim, n_fields, areas, 
     Dp = np.zeros((3, 3))
     traction = np.zeros(3)
     elastic = np.zeros(3)
+    work = np.empty((CONTACT_WORK, 3, 3))
     for k in range(len(nodes)):
         f_field, g_field = fields[k, 0], fields[k, 1]
         base_f = (nodes[k] * n_fields + f_field) * dim
@@ -319,9 +320,9 @@ def pair_forces(nodes, fields, normals, gaps, law, mu, u, dim, n_fields, areas, 
             params[3 + a] = -normals[k, a]
             y[a] = -gaps[k] * normals[k, a] + d[a]
             carried[a] = history[k, a]
-        state, p, plastic = contact_point(HALF_SPACE, params, y, d, carried, area, kn, stick, kt, mu[f_field, g_field],
-                                          kind == FRICTION, dim, f, Dp, traction, elastic, -1, held[k], -1.0,
-                                          onset)
+        state, p, plastic = contact_point_in(HALF_SPACE, params, y, d, carried, area, kn, stick, kt,
+                                             mu[f_field, g_field], kind == FRICTION, dim, f, Dp, traction, elastic,
+                                             -1, held[k], -1.0, onset, False, work)
         for a in range(dim):
             elastic_slip[k, a] = elastic[a]
         for a in range(dim):

@@ -181,7 +181,7 @@ class ContactTool(NodalTerm):
         # depth in the predictor (:meth:`predict`)
         depth = self._depth[c]
         self._start_depth = np.where(depth > self.stick, -depth, 0.0) if self.friction else np.zeros((n, corners))
-        self._cand = {"node_index": node_index, "active": active, "x": x, "history": self._history[c]}
+        self._cand = {"node_index": node_index, "active": active, "x": x, "history": self._history[c], "S": S, "G": G}
         self._step = (state, W, offsets, area)
         self._u = None
         # the first Jacobian holds the corners that were touching (kernels.contact.HELD),
@@ -216,13 +216,13 @@ class ContactTool(NodalTerm):
         corner_force = np.empty((n, corners, self.dim))
         held = self._held if (self._holding or self.tied) else np.zeros_like(self._held)
         cand = self._cand
-        kernels.contact_forces(self.kind, self.params, cand["node_index"], W, cand["x"], offsets,
-                                          u_local, self.offset + self._increment, self._increment,
-                                          cand["history"], area, self._faces, self.kn, self.stick, self.kt, self.mu,
-                                          self.friction, held, force, D, status, pressure, traction, elastic,
-                                          dissipation, corner_force,
-                                          np.full((n, corners), -1.0) if applied is None else applied,
-                                          self.tied)
+        kernels.contact_forces(self.kind, self.params, cand["node_index"], cand["S"], cand["G"], W, cand["x"],
+                               offsets, u_local, self.offset + self._increment, self._increment,
+                               cand["history"], area, self._faces, self.kn, self.stick, self.kt, self.mu,
+                               self.friction, held, force, D, status, pressure, traction, elastic,
+                               dissipation, corner_force,
+                               np.full((n, corners), -1.0) if applied is None else applied,
+                               self.tied)
         self._local = {"force": force, "D": D, "status": status, "pressure": pressure,
                        "traction": traction, "elastic": elastic, "dissipation": dissipation,
                        "corner_force": corner_force}
