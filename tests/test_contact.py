@@ -147,6 +147,60 @@ def test_a_tied_points_derivative_equals_finite_differences_and_it_pulls(dim, to
     assert seen == {"open", "first touch", "pulls", "pushes"}
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("kt", [0.0, 2e4])
+def test_the_corners_kernel_equals_the_law_at_each_corner(dim, kt):
+    """contact_forces gathers each particle's displacement and gradient once
+    for its corners (u_p + grad_p r_c): the same as the corner weights
+    S + G . r_c of corner_weights applied node by node, with the law at each
+    corner (contact_point) and its force scattered by those weights."""
+    rng = np.random.default_rng(7 + dim)
+    n, nn, nodes, corners = 40, 3 ** dim, 60, 1 << dim
+    node_index = rng.integers(0, nodes, size=(n, nn))
+    S, G = rng.random((n, nn)) / nn, rng.normal(size=(n, nn, dim))
+    half = 0.05 + 0.02 * rng.random((n, dim))
+    W, offsets = np.empty((n, corners, nn)), np.empty((n, corners, dim))
+    kernels.corner_weights(node_index, S, G, half, W, offsets)
+    x = rng.normal(size=(n, dim)) * 0.3
+    x[:, -1] = rng.normal(size=n) * 0.04                  # about the floor: some corners in it
+    u_local = rng.normal(size=(nodes, dim)) * 2e-3
+    params = np.zeros(12)
+    params[3 + dim - 1] = 1.0                             # the floor y (z) < 0, normal up
+    offset_end, increment = np.zeros(dim), rng.normal(size=dim) * 1e-3
+    history = rng.normal(size=(n, corners, dim)) * 1e-3
+    area = 0.5 + rng.random((n, corners))
+    faces = np.full(n, -1, dtype=np.int64)
+    held = np.zeros((n, corners), dtype=np.int8)
+    kn, stick, mu = 1e3, 1e-3, 0.3
+    out = {"force": np.zeros((nodes, dim)), "D": np.empty((n, corners, dim, dim)),
+           "status": np.empty((n, corners), dtype=np.int8), "pressure": np.empty((n, corners)),
+           "traction": np.empty((n, corners, dim)), "elastic": np.empty((n, corners, dim)),
+           "dissipation": np.empty((n, corners)), "corner_force": np.empty((n, corners, dim))}
+    kernels.contact_forces(kernels.HALF_SPACE, params, node_index, S, G, W, x, offsets, u_local, offset_end,
+                           increment, history, area, faces, kn, stick, kt, mu, True, held, out["force"], out["D"],
+                           out["status"], out["pressure"], out["traction"], out["elastic"], out["dissipation"],
+                           out["corner_force"], np.full((n, corners), -1.0))
+    force = np.zeros((nodes, dim))
+    for p in range(n):
+        for c in range(corners):
+            moved = W[p, c] @ u_local[node_index[p]]
+            y, slip = np.zeros(3), np.zeros(3)
+            y[:dim] = x[p] + offsets[p, c] + moved - offset_end
+            slip[:dim] = moved - increment
+            f, D, t, elastic = np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros(3)
+            status, pressure, _ = kernels.contact_point(kernels.HALF_SPACE, params, y, slip, history[p, c], area[p, c],
+                                                        kn, stick, kt, mu, True, dim, f, D, t, elastic)
+            assert status == out["status"][p, c]
+            assert pressure == pytest.approx(out["pressure"][p, c], rel=1e-12, abs=1e-12)
+            np.testing.assert_allclose(out["corner_force"][p, c], f[:dim], rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(out["D"][p, c], D[:dim, :dim], rtol=1e-10, atol=1e-9)
+            if status != kernels.OPEN:
+                np.add.at(force, node_index[p], W[p, c][:, None] * f[:dim])
+    counts = np.bincount(out["status"].ravel(), minlength=3)
+    assert counts[kernels.OPEN] > 0 and counts[kernels.STICK] > 0 and counts[kernels.SLIP] > 0
+    np.testing.assert_allclose(out["force"], force, rtol=1e-10, atol=1e-12)
+
+
 def test_a_tool_never_pulls():
     """Outside the tool, no force, however the point slid."""
     kind, params = _tools()["box"]
