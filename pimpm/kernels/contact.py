@@ -771,7 +771,6 @@ def contact_forces(kind, params, node_index, S, G, W, x, offsets, u_local, offse
     n_particles, corners, nn = W.shape
     dim = x.shape[1]
     y = np.empty(3)
-    moved = np.empty(3)
     slip = np.empty(3)
     f = np.empty(3)
     t = np.empty(3)
@@ -797,7 +796,6 @@ def contact_forces(kind, params, node_index, S, G, W, x, offsets, u_local, offse
                 m = u_p[a]
                 for b in range(dim):
                     m += grad[a, b] * offsets[p, c, b]
-                moved[a] = m
                 y[a] = x[p, a] + offsets[p, c, a] + m - offset_end[a]
                 slip[a] = m - increment[a]
             s, pr, plastic = contact_point_in(kind, params, y, slip, history[p, c], area[p, c], kn, stick, kt, mu,

@@ -28,7 +28,8 @@ At a node that two fields f and g both reach:
 """
 import numpy as np
 
-from .contact import CONTACT_WORK, HALF_SPACE, HELD, OPEN, SLIP, STICK, contact_point_in  # noqa: F401 (a pair's state: the law's)
+from .contact import (CONTACT_WORK, HALF_SPACE, HELD, OPEN, SLIP, STICK,  # noqa: F401 (a pair's state: the law's)
+                      contact_point_in)
 from .jit import jit, jit_inline
 
 BONDED, FRICTIONLESS, FRICTION = 0, 1, 2
